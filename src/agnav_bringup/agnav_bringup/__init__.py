@@ -1,0 +1,1 @@
+"""agnav configs, graph runner, evaluator and benchmarks (the agnav CLI)."""

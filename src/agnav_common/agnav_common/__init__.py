@@ -1,0 +1,1 @@
+"""Shared agnav helpers: frames and geodesy maths, rosbag2 type store, TF buffer/broadcaster, diagnostics."""

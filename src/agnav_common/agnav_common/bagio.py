@@ -1,0 +1,37 @@
+"""rosbag2 type store for agnav: ROS 2 Kilted standard types plus agnav_msgs and tf2_msgs from .msg files."""
+import os
+import sys
+from functools import lru_cache
+from pathlib import Path
+
+from rosbags.typesys import Stores, get_typestore, get_types_from_msg
+
+INTERFACE_PACKAGES = ("agnav_msgs", "tf2_msgs")
+
+
+def _share_dirs():
+    """Install prefixes to search for interface definitions: the venv, then AMENT_PREFIX_PATH."""
+    prefixes = [sys.prefix] + os.environ.get("AMENT_PREFIX_PATH", "").split(os.pathsep)
+    return [Path(p) / "share" for p in prefixes if p]
+
+
+def msg_definitions(package):
+    """{'pkg/msg/Name': text} for every .msg file of an installed interface package."""
+    for share in _share_dirs():
+        folder = share / package / "msg"
+        if folder.is_dir():
+            return {f"{package}/msg/{f.stem}": f.read_text() for f in sorted(folder.glob("*.msg"))}
+    raise FileNotFoundError(f"interface package {package} is not installed (run `make setup`)")
+
+
+@lru_cache(maxsize=1)
+def typestore():
+    """Kilted type store with the project's interfaces registered (cached)."""
+    store = get_typestore(Stores.ROS2_KILTED)
+    types = {}
+    for package in INTERFACE_PACKAGES:
+        for name, text in msg_definitions(package).items():
+            if name not in store.types:
+                types.update(get_types_from_msg(text, name))
+    store.register(types)
+    return store

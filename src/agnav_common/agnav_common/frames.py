@@ -1,0 +1,52 @@
+"""Attitude and angle conventions (REP-103, and the thesis' conventions at the edges; SPEC §2.3)."""
+import math
+
+import numpy as np
+
+
+def wrap_angle(a):
+    """Wrap an angle (rad, scalar or array) to (-pi, pi]."""
+    w = np.mod(np.asarray(a, dtype=float) + math.pi, 2.0 * math.pi) - math.pi
+    w = np.where(w == -math.pi, math.pi, w)
+    return float(w) if np.ndim(w) == 0 else w
+
+
+def quaternion_from_euler(roll, pitch, yaw):
+    """(x, y, z, w) of R_z(yaw) R_y(pitch) R_x(roll), REP-103 intrinsic Z-Y-X."""
+    cr, sr = math.cos(roll / 2), math.sin(roll / 2)
+    cp, sp = math.cos(pitch / 2), math.sin(pitch / 2)
+    cy, sy = math.cos(yaw / 2), math.sin(yaw / 2)
+    return (sr * cp * cy - cr * sp * sy,
+            cr * sp * cy + sr * cp * sy,
+            cr * cp * sy - sr * sp * cy,
+            cr * cp * cy + sr * sp * sy)
+
+
+def euler_from_quaternion(x, y, z, w):
+    """(roll, pitch, yaw) of a unit quaternion, inverse of quaternion_from_euler."""
+    roll = math.atan2(2 * (w * x + y * z), 1 - 2 * (x * x + y * y))
+    pitch = math.asin(max(-1.0, min(1.0, 2 * (w * y - z * x))))
+    yaw = math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
+    return roll, pitch, yaw
+
+
+def rotation_matrix(roll, pitch, yaw):
+    """3x3 body(FLU)->ENU matrix R_z(yaw) R_y(pitch) R_x(roll)."""
+    cr, sr = math.cos(roll), math.sin(roll)
+    cp, sp = math.cos(pitch), math.sin(pitch)
+    cy, sy = math.cos(yaw), math.sin(yaw)
+    return np.array([
+        [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
+        [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
+        [-sp, cp * sr, cp * cr],
+    ])
+
+
+def yaw_from_heading(heading):
+    """ENU yaw (CCW from east) from a heading clockwise from north (thesis φ); rad."""
+    return wrap_angle(math.pi / 2 - np.asarray(heading, dtype=float))
+
+
+def heading_from_yaw(yaw):
+    """Heading clockwise from north (thesis φ) from ENU yaw; rad, wrapped to (-pi, pi]."""
+    return wrap_angle(math.pi / 2 - np.asarray(yaw, dtype=float))

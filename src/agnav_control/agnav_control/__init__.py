@@ -1,0 +1,1 @@
+"""agnav steering: straight-line guidance, controllers, engage and watchdog."""
