@@ -1,0 +1,23 @@
+# agnav — two commands on a fresh machine: `make run` (main job) and `make test`.
+SHELL := /bin/bash
+VENV := .venv
+PY := $(VENV)/bin/python
+export ROS_AUTOMATIC_DISCOVERY_RANGE := LOCALHOST
+export ROS_LOG_DIR := $(CURDIR)/build/ros_log
+
+.PHONY: setup run test bench clean
+
+setup:
+	@bash tools/setup.sh
+
+run: setup
+	$(VENV)/bin/agnav run $(ARGS)
+
+test: setup
+	@bash tools/test.sh $(ARGS)
+
+bench: setup
+	$(VENV)/bin/agnav bench $(or $(NAME),replay)
+
+clean:
+	rm -rf build $(VENV) out

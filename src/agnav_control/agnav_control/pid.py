@@ -1,0 +1,42 @@
+"""PID steering on cross-track and heading error, as with RTK-GPS + FOG in thesis ch. IV (SPEC §5.3, 5 Hz)."""
+import math
+from dataclasses import dataclass, field
+
+from .guidance_line import TrackingError
+from .limits import Integrator, SpeedSchedule, SteeringLimiter, SteeringLimits
+
+
+@dataclass
+class PIDSettings:
+    kp: float = 0.25       # rad/m on cross-track
+    ki: float = 0.02       # rad/(m s) on integrated cross-track
+    kd: float = 0.0        # rad/(m/s) on the cross-track rate v*sin(heading_error)
+    kh: float = 1.2        # rad/rad on heading error
+    integral_limit: float = 2.0  # m s, clamp of the cross-track integral
+    integral_band: float = 0.25  # m, integrate only this close to the line (no wind-up while converging)
+    schedule: SpeedSchedule = field(default_factory=lambda: SpeedSchedule(ref_speed=1.0, exponent=0.5))
+    limits: SteeringLimits = field(default_factory=SteeringLimits)
+
+
+class PID:
+    """steer = -g(v) * (kp e + ki int(e) + kd v sin(h) + kh h); g(v) the speed schedule, clamped anti-windup."""
+
+    def __init__(self, settings: PIDSettings | None = None):
+        self.settings = settings or PIDSettings()
+        self.limiter = SteeringLimiter(self.settings.limits)
+        self.integral = Integrator(self.settings.integral_limit)
+
+    def reset(self):
+        self.integral.reset()
+        self.limiter.reset()
+
+    def update(self, err: TrackingError, dt: float) -> float:
+        s = self.settings
+        e, h = err.cross_track, err.heading_error
+        g = s.schedule.scale(err.speed)
+        self.integral.step(e if abs(e) < s.integral_band else 0.0, dt)
+        desired = -g * (s.kp * e + s.ki * self.integral.value + s.kd * err.speed * math.sin(h) + s.kh * h)
+        out = self.limiter(desired, dt)
+        # a positive e integrand drives the command negative: it pushes further when clipped from below
+        self.integral.unwind_if(self.limiter.saturated, (out - desired) * e * s.ki > 0.0)
+        return out

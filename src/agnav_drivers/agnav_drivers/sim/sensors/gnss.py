@@ -1,0 +1,56 @@
+"""GNSS receivers of SPEC §11.7: antenna position with Gauss-Markov (coloured) + white errors, latency."""
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+FIX_DGPS, FIX_RTK_FIXED = 2, 4
+
+
+@dataclass(frozen=True)
+class GnssParams:
+    """Per-axis horizontal errors (m): first-order Gauss-Markov bias (sigma, tau) + white; vertical ×vertical_ratio.
+    latency_s: epoch -> message arrival; vel_noise_mps: white on the ENU antenna velocity."""
+
+    model: str = "StarFire SF-2050M"
+    rate_hz: float = 1.0
+    bias_sigma_m: float = 0.06
+    bias_tau_s: float = 120.0
+    white_sigma_m: float = 0.025
+    vertical_ratio: float = 2.0
+    latency_s: float = 0.02
+    vel_noise_mps: float = 0.03
+    fix_type: int = FIX_DGPS
+    satellites: int = 9
+    hdop: float = 0.9
+    correction_age_s: float = 3.0
+
+
+class GnssReceiver:
+    """Samples the antenna position/velocity at each epoch; errors in map ENU metres."""
+
+    def __init__(self, params: GnssParams, rng: np.random.Generator):
+        self.params = params
+        self._rng = rng
+        self._scale = np.array([1.0, 1.0, params.vertical_ratio])
+        self.bias = params.bias_sigma_m * self._scale * rng.standard_normal(3)
+
+    def sample(self, dt, antenna_enu, antenna_vel_enu):
+        """(position ENU m, velocity ENU m/s) measured at this epoch; dt = time since the previous epoch."""
+        p, rng = self.params, self._rng
+        a = math.exp(-dt / p.bias_tau_s)
+        self.bias = a * self.bias + math.sqrt(1 - a * a) * p.bias_sigma_m * self._scale * rng.standard_normal(3)
+        pos = antenna_enu + self.bias + p.white_sigma_m * self._scale * rng.standard_normal(3)
+        vel = antenna_vel_enu + p.vel_noise_mps * self._scale * rng.standard_normal(3)
+        return pos, vel
+
+    @property
+    def position_cov(self):
+        """Honest ENU covariance (m^2): Gauss-Markov variance plus white variance per axis."""
+        p = self.params
+        return np.diag((p.bias_sigma_m ** 2 + p.white_sigma_m ** 2) * self._scale ** 2)
+
+    @property
+    def velocity_cov(self):
+        """ENU velocity covariance (m^2/s^2)."""
+        return np.diag((self.params.vel_noise_mps * self._scale) ** 2)

@@ -1,0 +1,81 @@
+"""Roll or pitch Kalman filter: gyro + first-order-lag inclinometer with acceleration compensation
+(agnav extension of SPEC §6.2; lag model from SPEC §11.6, acceleration model from §11.6 [RECON]).
+
+State x = [theta, gyro bias b, lagged angle theta_l]; theta' = omega_meas - b, b' = w_b,
+theta_l' = (theta - theta_l) / tau; the inclinometer (minus its lagged acceleration error) measures theta_l.
+Angles rad, rates rad/s, any consistent sign convention.
+"""
+from dataclasses import dataclass
+
+import numpy as np
+
+from agnav_fusion import kalman
+
+
+@dataclass
+class AttitudeKFSettings:
+    tau: float = 1.1                # s, inclinometer first-order time constant (D5R, SPEC §11.6)
+    gyro_noise: float = 0.0070      # rad/s/sqrt(Hz)-ish white rate noise density (ENV-05F: 0.4 deg/s rms at 100 Hz / 10 Hz bw)
+    bias_walk: float = 2.0e-4       # rad/s/sqrt(s), gyro bias random walk [IMPL]
+    incl_noise: float = 0.012       # rad, inclinometer measurement noise incl. vibration (1-sigma) [IMPL]
+    init_bias_sigma: float = 0.01   # rad/s, initial gyro bias uncertainty (~0.6 deg/s)
+    init_angle_sigma: float = 0.05  # rad
+    gate: float = 16.0              # squared Mahalanobis gate for inclinometer samples (1 dof)
+
+
+class AttitudeKF:
+    """Linear KF of one tilt axis; update() per IMU sample, with or without an inclinometer reading."""
+
+    def __init__(self, settings=None):
+        self.settings = settings or AttitudeKFSettings()
+        self.x = None
+        self.P = None
+        self._acc_lag = 0.0
+        self.rejected = 0
+        self.log = None  # list of (F, x_pred, P_pred, x_filt, P_filt) per step, for kalman.smooth_log
+
+    def _init(self, incl):
+        s = self.settings
+        self.x = np.array([incl, 0.0, incl])
+        self.P = np.diag([s.init_angle_sigma ** 2, s.init_bias_sigma ** 2, s.init_angle_sigma ** 2])
+
+    def update(self, rate, incl, dt, accel_error=0.0):
+        """Propagate with the gyro rate over dt, then fuse incl (rad, or None) whose acceleration error
+        accel_error (rad, the unlagged a/g term the inclinometer adds) is removed through the same lag."""
+        s = self.settings
+        if self.x is None:
+            if incl is None:
+                return None
+            self._init(incl)
+            self._acc_lag = accel_error
+        a = dt / s.tau
+        F = np.array([[1.0, -dt, 0.0], [0.0, 1.0, 0.0], [a, 0.0, 1.0 - a]])
+        Q = np.diag([(s.gyro_noise ** 2) * dt, (s.bias_walk ** 2) * dt, 0.0])
+        x, P = kalman.predict(self.x, self.P, F, Q)
+        x[0] += rate * dt
+        self._acc_lag += a * (accel_error - self._acc_lag)
+        x_pred, P_pred = x, P
+        if incl is not None:
+            H = np.array([[0.0, 0.0, 1.0]])
+            R = np.array([[s.incl_noise ** 2]])
+            y, S, d2 = kalman.innovation(x, P, np.array([incl - self._acc_lag]), H, R)
+            if d2 <= s.gate:
+                x, P = kalman.update(x, P, y, S, H, R)
+            else:
+                self.rejected += 1
+        self.x, self.P = x, P
+        if self.log is not None:
+            self.log.append((F, x_pred, P_pred, x, P))
+        return x[0]
+
+    @property
+    def angle(self):
+        return None if self.x is None else float(self.x[0])
+
+    @property
+    def variance(self):
+        return float(self.P[0, 0])
+
+    @property
+    def bias(self):
+        return float(self.x[1])

@@ -1,0 +1,53 @@
+"""Attitude-package LSM: roll or pitch from a vibratory gyro and a lagging capacitive inclinometer
+(SPEC §6.2, eq 5.1-5.11). One instance per axis; angles rad, rates rad/s, thesis sign conventions."""
+from collections import deque
+from dataclasses import dataclass
+
+import numpy as np
+
+from agnav_fusion.drift_lsm import WindowDriftLSM
+
+
+@dataclass
+class AttitudeLSMSettings:
+    window: int = 270          # M samples: 270 roll / 200 pitch at 100 Hz (R5-13)
+    delay: int = 110           # inclinometer lag Delta_i in samples (D5R tau ~1.1 s, SPEC §11.6) [IMPL]
+    anchor_time: float = 20.0  # s, time constant pulling the angle to the lagged inclinometer [IMPL]; 0 = off
+
+
+class AttitudeLSM:
+    """Drift d_t by (5.11); angle theta(t) = theta(t-1) + (omega + d_t) dT [RECON], anchored to the inclinometer."""
+
+    def __init__(self, settings=None):
+        self.settings = settings or AttitudeLSMSettings()
+        self._lsm = WindowDriftLSM(self.settings.window, self.settings.delay)
+        self._history = deque(maxlen=self.settings.delay + 1)  # past angle estimates for the lagged residual
+        self._resid = deque(maxlen=self.settings.window + 1)
+        self._count = 0
+        self.angle = None
+
+    @property
+    def drift(self):
+        return self._lsm.drift
+
+    def update(self, rate, incl, dt):
+        """One sample of gyro rate (rad/s) and inclinometer angle (rad); returns the angle estimate (rad)."""
+        drift = self._lsm.update(rate, incl, dt)
+        self.angle = incl if self.angle is None else self.angle + (rate + drift) * dt
+        self._history.append(self.angle)
+        # anchor: running mean at start-up (initial standstill), then a slow pull (IMPL)
+        self._count += 1
+        resid = incl - self._history[0]
+        self._resid.append(resid)
+        gain = 1.0 / self._count
+        if self.settings.anchor_time > 0:
+            gain = max(gain, dt / self.settings.anchor_time)
+        if not self._lsm.ready or self.settings.anchor_time > 0:
+            self.angle += gain * resid
+            self._history[-1] = self.angle
+        return self.angle
+
+    @property
+    def variance(self):
+        """Window variance of the inclinometer-minus-estimate residual (conservative, rad^2)."""
+        return float(np.var(self._resid)) if len(self._resid) > 1 else float("inf")

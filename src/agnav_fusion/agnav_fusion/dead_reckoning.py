@@ -1,0 +1,43 @@
+"""Dead reckoning between GNSS fixes (SPEC §6.3, eq 5.12-5.13), thesis conventions (X east, Y north,
+heading clockwise from north, radians), with a first-order covariance for the horizontal position."""
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass
+class DeadReckoningSettings:
+    speed_sigma: float = 0.05     # m/s, 1-sigma error of the travel speed V [IMPL]
+    heading_sigma: float = 0.011  # rad, 1-sigma heading error (~0.63 deg, Table 5.4 module) [IMPL]
+
+
+class DeadReckoning:
+    """X(k) = X_latest + sum sin(phi) V dt (5.12), Y(k) = Y_latest + sum cos(phi) V dt (5.13)."""
+
+    def __init__(self, settings=None):
+        self.settings = settings or DeadReckoningSettings()
+        self.xy = None
+        self.cov = None
+        self._cov0 = None
+        self._time = 0.0
+        self._distance = 0.0
+
+    def reset(self, xy, cov):
+        """Restart from the latest tilt-corrected fix (X_latest, Y_latest) with its 2x2 covariance."""
+        self.xy = np.array(xy, dtype=float)
+        self.cov = self._cov0 = np.array(cov, dtype=float)
+        self._time = self._distance = 0.0
+
+    def step(self, heading, speed, dt):
+        """Advance one attitude-package sample (5.12)-(5.13); returns (xy, cov)."""
+        s, c = math.sin(heading), math.cos(heading)
+        self.xy += np.array([s, c]) * speed * dt
+        self._time += dt
+        self._distance += abs(speed) * dt
+        # speed and heading errors are slow (bias-like): error grows with time / distance since the fix
+        along, cross = np.array([s, c]), np.array([c, -s])
+        sv = self.settings.speed_sigma * self._time
+        sh = self.settings.heading_sigma * self._distance
+        self.cov = self._cov0 + sv * sv * np.outer(along, along) + sh * sh * np.outer(cross, cross)
+        return self.xy, self.cov

@@ -1,0 +1,66 @@
+"""Scalar-first unit quaternions q = [q0, q1, q2, q3] of the body B relative to C-bar (SPEC §7.2)."""
+import math
+
+import numpy as np
+
+
+def from_roll_pitch_yaw(roll, pitch, yaw=0.0):
+    """Z-Y-X quaternion; with yaw = 0 this is (5-3-1..4)."""
+    cr, sr = math.cos(roll / 2), math.sin(roll / 2)
+    cp, sp = math.cos(pitch / 2), math.sin(pitch / 2)
+    cy, sy = math.cos(yaw / 2), math.sin(yaw / 2)
+    return np.array([cr * cp * cy + sr * sp * sy, sr * cp * cy - cr * sp * sy,
+                     cr * sp * cy + sr * cp * sy, cr * cp * sy - sr * sp * cy])
+
+
+def to_dcm(q):
+    """Body -> C-bar direction cosine matrix (5-3-5)."""
+    q0, q1, q2, q3 = q
+    return np.array([
+        [q0 * q0 + q1 * q1 - q2 * q2 - q3 * q3, 2 * (q1 * q2 - q0 * q3), 2 * (q1 * q3 + q0 * q2)],
+        [2 * (q1 * q2 + q0 * q3), q0 * q0 - q1 * q1 + q2 * q2 - q3 * q3, 2 * (q2 * q3 - q0 * q1)],
+        [2 * (q1 * q3 - q0 * q2), 2 * (q2 * q3 + q0 * q1), q0 * q0 - q1 * q1 - q2 * q2 + q3 * q3],
+    ])
+
+
+def from_dcm(c):
+    """Unit quaternion of a rotation matrix (Shepperd's method)."""
+    tr = c[0, 0] + c[1, 1] + c[2, 2]
+    cand = [tr, c[0, 0], c[1, 1], c[2, 2]]
+    i = int(np.argmax(cand))
+    if i == 0:
+        s = 2.0 * math.sqrt(1.0 + tr)
+        q = [s / 4, (c[2, 1] - c[1, 2]) / s, (c[0, 2] - c[2, 0]) / s, (c[1, 0] - c[0, 1]) / s]
+    elif i == 1:
+        s = 2.0 * math.sqrt(1.0 + c[0, 0] - c[1, 1] - c[2, 2])
+        q = [(c[2, 1] - c[1, 2]) / s, s / 4, (c[0, 1] + c[1, 0]) / s, (c[0, 2] + c[2, 0]) / s]
+    elif i == 2:
+        s = 2.0 * math.sqrt(1.0 - c[0, 0] + c[1, 1] - c[2, 2])
+        q = [(c[0, 2] - c[2, 0]) / s, (c[0, 1] + c[1, 0]) / s, s / 4, (c[1, 2] + c[2, 1]) / s]
+    else:
+        s = 2.0 * math.sqrt(1.0 - c[0, 0] - c[1, 1] + c[2, 2])
+        q = [(c[1, 0] - c[0, 1]) / s, (c[0, 2] + c[2, 0]) / s, (c[1, 2] + c[2, 1]) / s, s / 4]
+    q = np.array(q)
+    return q / np.linalg.norm(q) * (1.0 if q[0] >= 0 else -1.0)
+
+
+def rotate_increment(q, dtheta):
+    """q <- q (x) [cos(|dθ|/2), sin(|dθ|/2) dθ/|dθ|]: exact form of (5-3-10), normalised."""
+    a = math.sqrt(dtheta[0] ** 2 + dtheta[1] ** 2 + dtheta[2] ** 2)
+    if a < 1e-12:
+        r0, r1, r2, r3 = 1.0, 0.5 * dtheta[0], 0.5 * dtheta[1], 0.5 * dtheta[2]
+    else:
+        s = math.sin(a / 2) / a
+        r0, r1, r2, r3 = math.cos(a / 2), s * dtheta[0], s * dtheta[1], s * dtheta[2]
+    q0, q1, q2, q3 = q
+    out = np.array([q0 * r0 - q1 * r1 - q2 * r2 - q3 * r3,
+                    q0 * r1 + q1 * r0 + q2 * r3 - q3 * r2,
+                    q0 * r2 - q1 * r3 + q2 * r0 + q3 * r1,
+                    q0 * r3 + q1 * r2 - q2 * r1 + q3 * r0])
+    return out / math.sqrt(out @ out)
+
+
+def euler(c):
+    """(roll, pitch, yaw) of a body -> C-bar DCM (5-3-11..13)."""
+    return (math.atan2(c[2, 1], c[2, 2]), -math.asin(max(-1.0, min(1.0, c[2, 0]))),
+            math.atan2(c[1, 0], c[0, 0]))

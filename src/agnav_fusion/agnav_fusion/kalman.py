@@ -1,0 +1,37 @@
+"""Linear(ised) Kalman filter steps, Mahalanobis gate and Rauch-Tung-Striebel smoother (SPEC §8 [IMPL])."""
+import numpy as np
+
+
+def predict(x, P, F, Q):
+    """x <- F x, P <- F P F^T + Q."""
+    return F @ x, F @ P @ F.T + Q
+
+
+def innovation(x, P, z, H, R, h=None):
+    """Innovation y, its covariance S and squared Mahalanobis distance y^T S^-1 y."""
+    y = z - (H @ x if h is None else h)
+    S = H @ P @ H.T + R
+    return y, S, float(y @ np.linalg.solve(S, y))
+
+
+def update(x, P, y, S, H, R):
+    """Joseph-form update with a precomputed innovation (y, S)."""
+    K = np.linalg.solve(S, H @ P).T
+    IKH = np.eye(len(x)) - K @ H
+    return x + K @ y, IKH @ P @ IKH.T + K @ R @ K.T
+
+
+def rts(xs_f, Ps_f, xs_p, Ps_p, Fs):
+    """RTS smoother: filtered (x_k|k, P_k|k), predicted (x_k+1|k, P_k+1|k) and F_k (x_k+1 = F_k x_k)."""
+    xs, Ps = [xs_f[-1]], [Ps_f[-1]]
+    for k in range(len(xs_f) - 2, -1, -1):
+        C = np.linalg.solve(Ps_p[k].T, (Ps_f[k] @ Fs[k].T).T).T
+        xs.append(xs_f[k] + C @ (xs[-1] - xs_p[k]))
+        Ps.append(Ps_f[k] + C @ (Ps[-1] - Ps_p[k]) @ C.T)
+    return np.array(xs[::-1]), np.array(Ps[::-1])
+
+
+def smooth_log(log):
+    """RTS over a filter log of (F_k, x_k|k-1, P_k|k-1, x_k|k, P_k|k) entries; returns smoothed (xs, Ps)."""
+    F, xp, Pp, xf, Pf = (list(v) for v in zip(*log))
+    return rts(xf, Pf, xp[1:], Pp[1:], F[1:])

@@ -1,0 +1,84 @@
+import math
+
+from agnav_control.watchdog import OdometrySample, Watchdog, WatchdogSettings
+
+GOOD = OdometrySample(x=0.0, y=0.0, yaw=0.0, speed=2.0, position_var=0.01**2, yaw_var=0.01**2)
+
+
+def fed(wd, t0=0.0, n=20, dt=0.01, sample=GOOD):
+    for k in range(n):
+        wd.odometry(t0 + k * dt, sample)
+    return t0 + (n - 1) * dt
+
+
+def test_engage_requires_request_and_healthy_odometry():
+    wd = Watchdog()
+    ok, why = wd.request_engage(0.0)
+    assert not ok and "no odometry" in why and not wd.engaged
+    t = fed(wd)
+    assert not wd.engaged  # healthy odometry alone never engages
+    ok, _ = wd.request_engage(t)
+    assert ok and wd.engaged
+    assert [tr.engaged for tr in wd.transitions] == [True]
+
+
+def test_stale_odometry_disengages_on_timer_and_never_reengages():
+    seen = []
+    wd = Watchdog(WatchdogSettings(stale_timeout=0.2), on_transition=seen.append)
+    t = fed(wd)
+    wd.request_engage(t)
+    wd.check(t + 0.15)
+    assert wd.engaged
+    wd.check(t + 0.25)
+    assert not wd.engaged and "stale" in seen[-1].reason
+    t2 = fed(wd, t0=t + 0.3)
+    wd.check(t2 + 0.01)
+    assert not wd.engaged and wd.fault is None  # healthy again but stays disengaged
+    assert [tr.engaged for tr in seen] == [True, False]
+
+
+def test_nan_disengages_and_does_not_refresh():
+    wd = Watchdog()
+    t = fed(wd)
+    wd.request_engage(t)
+    bad = OdometrySample(float("nan"), 0.0, 0.0, 2.0, 1e-4, 1e-4)
+    assert "non-finite" in wd.odometry(t + 0.01, bad)
+    assert not wd.engaged
+    for k in range(30):  # a stream of NaN is as good as no odometry
+        wd.odometry(t + 0.02 + 0.01 * k, bad)
+    assert "stale" in wd.check(t + 0.35)
+
+
+def test_covariance_speed_and_panic_faults():
+    s = WatchdogSettings(max_position_std=0.3, min_speed=0.2, panic_deceleration=3.0)
+    cases = [
+        (OdometrySample(0, 0, 0, 2.0, 0.5**2, 1e-4), "position std"),
+        (OdometrySample(0, 0, 0, 2.0, 1e-4, 0.5**2), "yaw std"),
+        (OdometrySample(0, 0, 0, 0.1, 1e-4, 1e-4), "speed"),
+    ]
+    for sample, word in cases:
+        wd = Watchdog(s)
+        t = fed(wd, sample=OdometrySample(0, 0, 0, 0.3, 1e-4, 1e-4))  # slow enough to stop without panic
+        wd.request_engage(t)
+        assert word in wd.odometry(t + 0.01, sample) and not wd.engaged
+    wd = Watchdog(s)
+    t = fed(wd)
+    wd.request_engage(t)
+    assert wd.engaged
+    for k in range(1, 30):  # 5 m/s^2 braking
+        wd.odometry(t + 0.01 * k, OdometrySample(0, 0, 0, 2.0 - 0.05 * k, 1e-4, 1e-4))
+        if not wd.engaged:
+            break
+    assert "panic" in wd.transitions[-1].reason
+    assert math.isclose(wd.transitions[-1].time, t + 0.01 * k)
+
+
+def test_refused_when_unhealthy_and_manual_disengage():
+    wd = Watchdog()
+    t = fed(wd, sample=OdometrySample(0, 0, 0, 0.0, 1e-4, 1e-4))
+    ok, why = wd.request_engage(t)
+    assert not ok and "speed" in why
+    t = fed(wd, t0=t + 0.01)
+    assert wd.request_engage(t)[0]
+    wd.disengage(t, "operator")
+    assert not wd.engaged and wd.transitions[-1].reason == "operator"
