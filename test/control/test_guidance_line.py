@@ -2,7 +2,8 @@ import math
 
 import pytest
 from agnav_common.geodesy import LocalTangentPlane
-from agnav_control.guidance_line import GuidanceLine, LineTeacher, ParallelPasses, VariableTarget, VariableTargetSettings
+from agnav_control.guidance_line import GuidanceLine, LineTeacher, ParallelPasses, VariableTargetLine
+from agnav_fusion.variance_weighted_average import VwaSettings
 
 
 def test_cross_track_sign_left_positive_and_heading_error():
@@ -78,14 +79,19 @@ def test_teacher_needs_distance_and_averages_heading():
     assert track.line().yaw == pytest.approx(0.0)
 
 
-def test_variable_target_updates_every_interval_from_window():
-    vt = VariableTarget(VariableTargetSettings(window=10.0, update_interval=2.0))
+def test_variable_target_line_retargets_every_interval_keeping_cross_track():
+    vt = VariableTargetLine(VwaSettings(window=10.0, interval=2.0))
+    line = GuidanceLine(0.0, 0.5, math.pi - 0.05)  # heading west, across the +-pi seam
     updates = []
-    for k in range(0, 300):  # 15 Hz for 20 s, heading ramps slowly across the +-pi seam
+    for k in range(300):  # 15 Hz for 20 s; yaw turns slowly through +-pi
         t = k / 15.0
-        new = vt.add(t, math.pi - 0.05 + 0.01 * t)
-        if new is not None:
-            updates.append((t, new))
-    assert [round(t) for t, _ in updates] == [10, 12, 14, 16, 18]
-    t, target = updates[-1]
-    assert target == pytest.approx(math.remainder(math.pi - 0.05 + 0.01 * (t - 5.0), 2 * math.pi), abs=2e-3)
+        yaw = math.remainder(math.pi - 0.05 + 0.01 * t, 2 * math.pi)
+        x, y = -t, 0.0
+        new = vt.update(line, t, x, y, yaw)
+        if new is not line:
+            assert new.error(x, y, yaw, 1.0).cross_track == pytest.approx(line.error(x, y, yaw, 1.0).cross_track)
+            updates.append(t)
+            line = new
+    assert [round(t) for t in updates] == [10, 12, 14, 16, 18]
+    # target = mean yaw over the last 10 s window = yaw 5 s before the update
+    assert line.yaw == pytest.approx(math.remainder(math.pi - 0.05 + 0.01 * (updates[-1] - 5.0), 2 * math.pi), abs=2e-3)

@@ -1,11 +1,11 @@
 """Straight AB guidance lines in the `map` frame: geometry, parallel passes, teaching and the variable target
 heading (SPEC §3.4 teaching, §3.6 variable target; signs per INTERFACES GuidanceState)."""
 import math
-from collections import deque
 from dataclasses import dataclass, replace
 
 import numpy as np
-from agnav_common.frames import wrap_angle
+from agnav_common.frames import heading_from_yaw, wrap_angle, yaw_from_heading
+from agnav_fusion.variance_weighted_average import VariableTargetVwa, VwaSettings
 
 
 @dataclass(frozen=True)
@@ -122,36 +122,25 @@ class LineTeacher:
         return GuidanceLine(float(cx), float(cy), yaw)
 
 
-@dataclass
-class VariableTargetSettings:
-    """SPEC §3.6 Table 2.5: window T and update interval ΔT."""
+class VariableTargetLine:
+    """Variable target heading (SPEC §3.6, Fig. 2.19) for one fused yaw stream: every ΔT the line is turned to
+    the mean heading of the last T s about the vehicle (cross-track kept), windowing by agnav_fusion's VWA."""
 
-    window: float = 10.0          # T, s
-    update_interval: float = 2.0  # ΔT, s
+    def __init__(self, settings: VwaSettings | None = None):
+        self._vwa = VariableTargetVwa(settings)
+        self._heading = None  # unwrapped thesis heading (rad, clockwise from north)
 
-
-class VariableTarget:
-    """Variable target heading (SPEC §3.6): every ΔT the target becomes the mean heading of the last T s,
-    (2.44) with one fused heading stream (the window mean of the deviation (2.52) is then zero)."""
-
-    def __init__(self, settings: VariableTargetSettings | None = None):
-        self.settings = settings or VariableTargetSettings()
-        self._window = deque()  # (t, unwrapped yaw)
-        self._next_update = None
-        self.target = None      # rad, ENU; None until the first window is complete
-
-    def add(self, t: float, yaw: float) -> float | None:
-        """Feed a heading sample; returns a new target yaw when one is due at t, else None."""
-        if self._window:
-            yaw = self._window[-1][1] + wrap_angle(yaw - self._window[-1][1])
-        self._window.append((t, yaw))
-        while self._window[0][0] <= t - self.settings.window:
-            self._window.popleft()
-        if self._next_update is None:
-            self._next_update = t + self.settings.window
-        if t < self._next_update:
-            return None
-        while self._next_update <= t:
-            self._next_update += self.settings.update_interval
-        self.target = wrap_angle(float(np.mean([w for _, w in self._window])))
-        return self.target
+    def update(self, line: GuidanceLine, t: float, x: float, y: float, yaw: float) -> GuidanceLine:
+        """Feed the pose at t; returns the re-targeted line when an update is due, else `line`."""
+        heading = float(heading_from_yaw(yaw))
+        if self._heading is not None:
+            heading = self._heading + wrap_angle(heading - self._heading)
+        self._heading = heading
+        before = self._vwa.stats
+        self._vwa.update(t, heading, heading)
+        if self._vwa.stats is before:
+            return line
+        target = float(yaw_from_heading(self._vwa.target))
+        if abs(wrap_angle(target - line.yaw)) > math.pi / 2:  # keep the line's own direction
+            target = wrap_angle(target + math.pi)
+        return line.rotated_about(x, y, target)
