@@ -61,6 +61,7 @@ class VariableTargetVwa:
         self._buf: deque = deque()       # (t, gds, gyro)
         self._next_update: float | None = None
         self.stats: WindowStats | None = None
+        self.last_update: float | None = None   # kΔT of the current statistics
 
     def update(self, t: float, heading_gds: float, heading_gyro: float, gds_variance_scale: float = 1.0):
         """Add a sample; returns (Δφ_est (2.52), φ_est (2.37), σ²_est) or None before the first window.
@@ -76,6 +77,7 @@ class VariableTargetVwa:
             _, g, y = zip(*self._buf)
             w = WindowStats.of(g, y)
             self.stats = WindowStats(w.mean_gds, w.mean_gyro, w.var_gds * gds_variance_scale, w.var_gyro)
+            self.last_update = t
             while self._next_update <= t:
                 self._next_update += self.s.interval
         if self.stats is None:
