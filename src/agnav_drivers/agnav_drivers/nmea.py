@@ -41,7 +41,15 @@ class THS(pynmea2.TalkerSentence):
 
 
 class Rejected(ValueError):
-    """A well-formed sentence with a value that must not be published."""
+    """A well-formed sentence with a value that must not be published; `events` still go out."""
+
+    def __init__(self, reason: str, events: list | None = None):
+        super().__init__(reason)
+        self.events = events or []
+
+
+class Duplicate(Exception):
+    """A second sentence for an epoch already handled (e.g. GPGGA and GLGGA of one epoch)."""
 
 
 @dataclass
@@ -55,6 +63,7 @@ class NmeaSettings:
     gst_max_age: float = 1.5         # s of receiver time between a GST and the GGA that uses it
     fix_timeout: float = 2.0         # s of host time a valid fix keeps enabling velocity output
     max_speed: float = 515.0         # m/s (1000 kn): faster is absurd
+    resync_after: int = 5            # consecutive backwards epochs that mean the receiver clock reset
     max_line: int = 256
 
 
@@ -73,9 +82,35 @@ class NmeaCounters:
     by_type: dict = field(default_factory=dict)
 
 
+class Monotonic:
+    """Accepts strictly increasing times; equal -> Duplicate, earlier -> Rejected, except that
+    `resync` consecutive earlier times adopt the new timeline (receiver reset, spliced stream).
+    With `day_wrap`, times are times of day and a drop of more than half a day is midnight."""
+
+    def __init__(self, resync: int, day_wrap: bool = False):
+        self.resync, self.day_wrap = resync, day_wrap
+        self.last: float | None = None
+        self._backwards = 0
+
+    def check(self, t: float | None) -> None:
+        last = self.last
+        if t is None:
+            return
+        if last is not None and t == last:
+            raise Duplicate()
+        if last is not None and t < last and not (self.day_wrap and last - t > DAY / 2):
+            self._backwards += 1
+            if self._backwards < self.resync:
+                raise Rejected(f"time backwards {last} -> {t}")
+        self._backwards = 0
+        self.last = t
+
+
 def _seconds(t: dt.time | None) -> float | None:
     if t is None:
         return None
+    if not isinstance(t, dt.time):
+        raise ValueError(f"malformed time {t!r}")
     return t.hour * 3600.0 + t.minute * 60.0 + t.second + t.microsecond * 1e-6
 
 
@@ -91,12 +126,13 @@ def _degrees(value: str, hemisphere: str, limit: float, positive: str, negative:
     return deg
 
 
-def _optional_float(text: str | None, low: float, high: float, name: str) -> float | None:
-    if text in (None, ""):
+def _optional_float(raw, low: float, high: float, name: str) -> float | None:
+    """Field (text or already converted by pynmea2) as float; None when empty."""
+    if raw is None or raw == "":
         return None
-    value = float(text)
+    value = float(raw)
     if not finite(value) or not low <= value <= high:
-        raise Rejected(f"{name} out of range: {text}")
+        raise Rejected(f"{name} out of range: {raw}")
     return value
 
 
@@ -111,12 +147,15 @@ class NmeaParser:
                           "GSA": self._gsa, "HDT": self._hdt, "THS": self._ths, "ZDA": self._zda}
         self._date: dt.date | None = None
         self._epoch_tod: float | None = None     # time of day of the latest timed sentence
-        self._last_fix_key: float | None = None
+        self._fix_order = {True: Monotonic(self.settings.resync_after, day_wrap=True),
+                           False: Monotonic(self.settings.resync_after)}
         self._last_time_ref: float | None = None
+        self._time_by_source: dict[str, Monotonic] = {}
         self._gst: tuple | None = None           # (time of day, covariance, covariance type)
         self._vdop: float | None = None
         self._fix_valid_until = -math.inf
         self._velocity_epoch: float | None = None
+        self._prefix_noise = 0
 
     # ---- framing -------------------------------------------------------------------------------
     def feed(self, data: bytes, host_time: float) -> list:
@@ -125,8 +164,6 @@ class NmeaParser:
             events += self.parse_line(raw, host_time)
         self.counters.noise_bytes = self._lines.dropped_bytes + self._prefix_noise
         return events
-
-    _prefix_noise = 0
 
     def parse_line(self, raw: bytes, host_time: float) -> list:
         c = self.counters
@@ -168,6 +205,9 @@ class NmeaParser:
             c.last_problem = f"{msg.sentence_type}: {exc}"
             if "backwards" in str(exc):
                 c.time_backwards += 1
+            return exc.events
+        except Duplicate:
+            c.ignored += 1
             return []
         except (ValueError, TypeError, IndexError, AttributeError) as exc:
             c.parse_errors += 1
@@ -195,26 +235,21 @@ class NmeaParser:
             t += DAY  # GGA after midnight before the next RMC/ZDA date
         return t
 
-    @staticmethod
-    def _check_order(key: float | None, last: float | None, wraps: bool) -> None:
-        if key is None or last is None:
-            return
-        if key == last:
-            raise Rejected("duplicate epoch")
-        if key < last and not (wraps and last - key > DAY / 2):
-            raise Rejected(f"time backwards {last} -> {key}")
-
     def _time_reference(self, t: float, host_time: float, source: str) -> list:
+        """Monotonic per source (some receivers' ZDA runs seconds ahead of RMC); published once per time."""
+        order = self._time_by_source.setdefault(source, Monotonic(self.settings.resync_after))
+        try:
+            order.check(t)
+        except Duplicate:
+            return []
         if self._last_time_ref is not None and t <= self._last_time_ref:
-            if t < self._last_time_ref:
-                raise Rejected(f"time backwards {self._last_time_ref} -> {t}")
             return []
         self._last_time_ref = t
         return [ReceiverTime(host_time, t, source)]
 
     # ---- sentences -----------------------------------------------------------------------------
     def _gga(self, msg, host_time: float) -> list:
-        quality = msg.gps_qual
+        quality = 0 if msg.gps_qual is None else msg.gps_qual  # empty field: no fix
         if quality not in GGA_QUALITY:
             raise Rejected(f"unknown quality {quality!r}")
         fix_type = GGA_QUALITY[quality]
@@ -224,25 +259,26 @@ class NmeaParser:
             raise Rejected(f"satellites {sats}")
         hdop = _optional_float(msg.horizontal_dil, 0.0, 100.0, "hdop")
         age = _optional_float(msg.age_gps_data, 0.0, 3600.0, "correction age")
-        events = []
-        if fix_type in POSITION_FIX_TYPES:
-            key = rt if rt is not None else tod
-            self._check_order(key, self._last_fix_key, wraps=rt is None)
+        if fix_type not in POSITION_FIX_TYPES:
+            self._fix_valid_until = -math.inf
+        else:
+            self._fix_order[rt is None].check(rt if rt is not None else tod)
+        status = GnssFixStatus(host_time, rt, fix_type, sats,
+                               -1.0 if hdop is None else hdop, -1.0 if age is None else age)
+        if fix_type not in POSITION_FIX_TYPES:
+            return [status]
+        try:
             lat = _degrees(msg.lat, msg.lat_dir, 90.0, "N", "S")
             lon = _degrees(msg.lon, msg.lon_dir, 180.0, "E", "W")
             alt_msl = _optional_float(msg.altitude, -1000.0, 1e5, "altitude")
             if alt_msl is None:
-                raise Rejected("no altitude")
-            separation = _optional_float(msg.geo_sep, -200.0, 200.0, "geoid separation") or 0.0
-            cov, cov_type = self._covariance(fix_type, hdop, tod)
-            events.append(GnssFix(host_time, rt, lat, lon, alt_msl + separation, fix_type, cov, cov_type))
-            self._last_fix_key = key
-            self._fix_valid_until = host_time + self.settings.fix_timeout
-        else:
-            self._fix_valid_until = -math.inf
-        events.insert(0, GnssFixStatus(host_time, rt, fix_type, sats,
-                                       -1.0 if hdop is None else hdop, -1.0 if age is None else age))
-        return events
+                raise Rejected("no altitude (2D fix)")
+        except Rejected as exc:
+            raise Rejected(str(exc), [status]) from None
+        separation = _optional_float(msg.geo_sep, -200.0, 200.0, "geoid separation") or 0.0
+        cov, cov_type = self._covariance(fix_type, hdop, tod)
+        self._fix_valid_until = host_time + self.settings.fix_timeout
+        return [status, GnssFix(host_time, rt, lat, lon, alt_msl + separation, fix_type, cov, cov_type)]
 
     def _covariance(self, fix_type: int, hdop: float | None, tod: float | None) -> tuple[tuple, int]:
         s = self.settings
@@ -263,11 +299,12 @@ class NmeaParser:
         if tod is None:
             raise Rejected("GST without time")
         sig = {name: _optional_float(getattr(msg, name), 0.0, 1e5, name) for name in (
-            "std_dev_major", "std_dev_minor", "orientation", "std_dev_latitude", "std_dev_longitude",
+            "std_dev_major", "std_dev_minor", "std_dev_latitude", "std_dev_longitude",
             "std_dev_altitude")}
-        major, minor, orient = sig["std_dev_major"], sig["std_dev_minor"], sig["orientation"]
+        major, minor = sig["std_dev_major"], sig["std_dev_minor"]
+        orient = _optional_float(msg.orientation, -360.0, 360.0, "orientation")
         s_lat, s_lon, s_alt = sig["std_dev_latitude"], sig["std_dev_longitude"], sig["std_dev_altitude"]
-        if major and minor is not None and orient is not None and orient <= 360.0:
+        if major and minor is not None and orient is not None:
             th = math.radians(orient)  # semi-major axis azimuth, clockwise from north
             u, v = (math.sin(th), math.cos(th)), (math.cos(th), -math.sin(th))
             ee = (major * u[0]) ** 2 + (minor * v[0]) ** 2
@@ -307,7 +344,7 @@ class NmeaParser:
         return [GnssVelocity(host_time, self._receiver_time(self._epoch_tod), east, north, 0.0,
                              diag3(var, var, 99999.0))]
 
-    def _speed_course(self, knots: str | None, course: str | None, kmh: str | None = None):
+    def _speed_course(self, knots, course, kmh=None):
         top = self.settings.max_speed
         speed_kn = _optional_float(knots, 0.0, top / KNOT, "speed")
         if speed_kn is None and kmh:
@@ -315,14 +352,15 @@ class NmeaParser:
         return (None if speed_kn is None else speed_kn * KNOT), _optional_float(course, 0.0, 360.0, "course")
 
     def _rmc(self, msg, host_time: float) -> list:
-        date = msg.datestamp  # ValueError on a malformed date -> parse error
+        date = msg.datestamp
+        if date is not None and not isinstance(date, dt.date):
+            raise ValueError(f"malformed date {date!r}")
         tod, _ = self._timed(msg.timestamp)
-        speed, course = self._speed_course(msg.spd_over_grnd and str(msg.spd_over_grnd),
-                                           msg.true_course and str(msg.true_course))
+        speed, course = self._speed_course(msg.spd_over_grnd, msg.true_course)
         events = []
         if date is not None and tod is not None:
             self._date = date
-            events += self._time_reference(self._receiver_time(tod), host_time, "RMC")
+            events += self._time_reference(self._receiver_time(tod), host_time, msg.talker + "RMC")
         mode = getattr(msg, "mode_indicator", "") or ""
         if msg.status == "A" and mode != "N":
             self._fix_valid_until = max(self._fix_valid_until, host_time + self.settings.fix_timeout)
@@ -332,13 +370,11 @@ class NmeaParser:
     def _vtg(self, msg, host_time: float) -> list:
         if (msg.faa_mode or "") == "N":
             return []
-        speed, course = self._speed_course(msg.spd_over_grnd_kts and str(msg.spd_over_grnd_kts),
-                                           msg.true_track and str(msg.true_track),
-                                           msg.spd_over_grnd_kmph and str(msg.spd_over_grnd_kmph))
+        speed, course = self._speed_course(msg.spd_over_grnd_kts, msg.true_track, msg.spd_over_grnd_kmph)
         return self._velocity(host_time, speed, course)
 
     def _heading(self, value, host_time: float) -> list:
-        heading = _optional_float(value if value is None else str(value), 0.0, 360.0, "heading")
+        heading = _optional_float(value, 0.0, 360.0, "heading")
         if heading is None:
             return []
         return [GnssAttitude(host_time, self._receiver_time(self._epoch_tod), heading % 360.0)]
@@ -359,4 +395,4 @@ class NmeaParser:
             raise Rejected(f"year {date.year}")
         self._date = date
         tod, rt = self._timed(msg.timestamp)
-        return self._time_reference(rt, host_time, "ZDA")
+        return self._time_reference(rt, host_time, msg.talker + "ZDA")
