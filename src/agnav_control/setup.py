@@ -21,6 +21,7 @@ setup(
     license="Apache-2.0",
     entry_points={
         "console_scripts": [
+            "steering_node = agnav_control.steering_node:main",
         ],
     },
 )

@@ -1,0 +1,222 @@
+"""Straight-line autosteer node: /odometry/filtered -> /guidance/state + /steering/command, with AB line
+set/teach/engage services and the fail-safe watchdog (INTERFACES; issue 6)."""
+import math
+
+from agnav_common.diagnostics import ERROR, OK, WARN, Diagnostics
+from agnav_common.frames import euler_from_quaternion
+from agnav_common.geodesy import LocalTangentPlane
+from agnav_common.node_main import main_for
+from agnav_common.qos import LATCHED_QOS, SENSOR_QOS
+from agnav_common.stamps import StampGuard, to_sec
+from agnav_fusion.variance_weighted_average import VwaSettings
+from agnav_msgs.msg import GuidanceState, SteeringCommand
+from nav_msgs.msg import Odometry
+from rclpy.node import Node
+from sensor_msgs.msg import NavSatFix
+from std_msgs.msg import Header
+from std_srvs.srv import SetBool, Trigger
+
+from .controllers import CONTROLLERS, make_controller, scalar_fields
+from .guidance_line import GuidanceLine, LineTeacher, ParallelPasses, VariableTargetLine
+from .limits import SteeringLimits
+from .watchdog import OdometrySample, Watchdog, WatchdogSettings
+
+MAX_DT = 0.5  # s, longest controller step accepted between two odometry messages
+
+
+class SteeringNode(Node):
+    def __init__(self, **kwargs):
+        super().__init__("steering_node", **kwargs)
+        p = self._declare
+        self.controller_name = p("controller", "pid")
+        if self.controller_name not in CONTROLLERS:
+            raise ValueError(f"controller must be one of {sorted(CONTROLLERS)}")
+        limits = SteeringLimits(p("max_steering_angle", SteeringLimits.max_angle),
+                                p("max_steering_rate", SteeringLimits.max_rate))
+        gains = {k: p(f"{self.controller_name}.{k}", v) for k, v in scalar_fields(self.controller_name).items()}
+        self.controller = make_controller(self.controller_name, limits=limits, **gains)
+        self.limits = limits
+        w = WatchdogSettings()
+        self.watchdog = Watchdog(WatchdogSettings(
+            stale_timeout=p("watchdog.stale_timeout", w.stale_timeout),
+            max_position_std=p("watchdog.max_position_std", w.max_position_std),
+            max_yaw_std=p("watchdog.max_yaw_std", w.max_yaw_std),
+            min_speed=p("watchdog.min_speed", w.min_speed),
+            panic_deceleration=p("watchdog.panic_deceleration", w.panic_deceleration),
+            decel_window=p("watchdog.decel_window", w.decel_window)), on_transition=self._on_transition)
+        self.bidirectional = p("bidirectional", True)
+        self.implement_width = p("implement_width", 0.0)
+        self.teach_min_distance = p("teach.min_distance", 3.0)
+        self.teach_heading_source = p("teach.heading_source", "yaw")
+        vwa = VwaSettings()
+        self.vwa_settings = VwaSettings(p("variable_target.window", vwa.window), p("variable_target.interval", vwa.interval))
+        self.use_variable_target = p("variable_target.enabled", False)
+        self.line_frame = p("line.frame", "map")  # 'map' (x, y m) or 'latlon' (deg)
+        self.line_a = list(p("line.a", [0.0, 0.0]))
+        self.line_b = list(p("line.b", [0.0, 0.0]))
+
+        self.base_line = self.line = None
+        self.passes = None
+        self.pass_index = 0
+        self.teacher = None
+        self.variable_target = None
+        self.pose = None         # (t, x, y, yaw, speed) of the last accepted odometry
+        self.guard = StampGuard()
+        self.rejected = {"stamp": 0, "non-finite": 0}
+        self.angle = 0.0
+        if self.line_frame == "map" and self.line_a != self.line_b:
+            self._set_line(GuidanceLine.from_points(self.line_a, self.line_b), "parameters")
+
+        self.state_pub = self.create_publisher(GuidanceState, "/guidance/state", SENSOR_QOS)
+        self.cmd_pub = self.create_publisher(SteeringCommand, "/steering/command", SENSOR_QOS)
+        self.create_subscription(Odometry, "/odometry/filtered", self._on_odometry, SENSOR_QOS)
+        self.create_subscription(NavSatFix, "/map_datum", self._on_datum, LATCHED_QOS)
+        self.create_service(Trigger, "steering/set_line_here", self._srv_set_line_here)
+        self.create_service(SetBool, "steering/teach", self._srv_teach)
+        self.create_service(SetBool, "steering/engage", self._srv_engage)
+        self.create_service(Trigger, "steering/next_pass", self._srv_next_pass)
+        self.create_timer(1.0 / p("watchdog.rate", 50.0), self._on_timer)
+        self.diagnostics = Diagnostics(self, "steering")
+        self.diagnostics.add("autosteer", self._diagnose)
+
+    def _declare(self, name, default):
+        return self.declare_parameter(name, default).value
+
+    def _now(self) -> float:
+        return self.get_clock().now().nanoseconds * 1e-9
+
+    # ---- line management -------------------------------------------------------------------------------
+    def _set_line(self, line: GuidanceLine, source: str):
+        self.watchdog.disengage(self._now(), f"line changed ({source})")
+        self.base_line = self.line = line
+        self.passes = ParallelPasses(line, self.implement_width) if self.implement_width > 0.0 else None
+        self.pass_index = 0
+        self.get_logger().info(f"guidance line from {source}: ({line.x:.2f}, {line.y:.2f}) yaw {math.degrees(line.yaw):.2f} deg")
+
+    def _on_datum(self, msg: NavSatFix):
+        if self.line_frame != "latlon" or self.base_line is not None or self.line_a == self.line_b:
+            return
+        plane = LocalTangentPlane(msg.latitude, msg.longitude, msg.altitude)
+        self._set_line(GuidanceLine.from_latlon(plane, self.line_a, self.line_b), "lat/lon parameters")
+
+    def _srv_set_line_here(self, _request, response):
+        if self.pose is None:
+            response.success, response.message = False, "no odometry yet"
+        else:
+            _, x, y, yaw, _ = self.pose
+            self._set_line(GuidanceLine(x, y, yaw), "current pose")
+            response.success, response.message = True, f"line through ({x:.2f}, {y:.2f}) yaw {math.degrees(yaw):.2f} deg"
+        return response
+
+    def _srv_teach(self, request, response):
+        if request.data:
+            self.teacher = LineTeacher(self.teach_min_distance, self.teach_heading_source)
+            response.success, response.message = True, "teaching: drive the line"
+            return response
+        line = self.teacher.line() if self.teacher is not None else None
+        if line is None:
+            dist = self.teacher.distance if self.teacher is not None else 0.0
+            response.success = False
+            response.message = f"taught {dist:.1f} m, need {self.teach_min_distance} m"
+        else:
+            self._set_line(line, "teaching")
+            response.success, response.message = True, f"taught yaw {math.degrees(line.yaw):.2f} deg"
+        self.teacher = None
+        return response
+
+    def _srv_engage(self, request, response):
+        now = self._now()
+        if not request.data:
+            self.watchdog.disengage(now, "disengage requested")
+            response.success, response.message = True, "disengaged"
+        elif self.base_line is None:
+            response.success, response.message = False, "refused: no guidance line"
+        else:
+            if self.passes is not None and self.pose is not None:
+                self.pass_index = self.passes.nearest(self.pose[1], self.pose[2])
+                self.line = self.passes.line(self.pass_index)
+            response.success, response.message = self.watchdog.request_engage(now)
+        return response
+
+    def _srv_next_pass(self, _request, response):
+        if self.passes is None or self.pose is None:
+            response.success, response.message = False, "needs implement_width > 0, a line and odometry"
+        elif self.watchdog.engaged:
+            response.success, response.message = False, "disengage before changing pass"
+        else:
+            self.pass_index = self.passes.next_index(self.pass_index, self.pose[1], self.pose[2])
+            self.line = self.passes.line(self.pass_index)
+            response.success, response.message = True, f"pass {self.pass_index}"
+        return response
+
+    # ---- control loop ----------------------------------------------------------------------------------
+    def _on_odometry(self, msg: Odometry):
+        t = to_sec(msg.header.stamp)
+        reason = self.guard.check(t)
+        if reason is not None:
+            self.rejected["stamp"] += 1
+            return
+        q = msg.pose.pose.orientation
+        _, _, yaw = euler_from_quaternion(q.x, q.y, q.z, q.w)
+        cov = msg.pose.covariance
+        sample = OdometrySample(msg.pose.pose.position.x, msg.pose.pose.position.y, yaw, msg.twist.twist.linear.x,
+                                max(cov[0], cov[7]), cov[35])
+        fault = self.watchdog.odometry(self._now(), sample)
+        if fault is not None and fault.startswith("non-finite"):
+            self.rejected["non-finite"] += 1
+            self._publish_command(msg.header.stamp, 0.0)
+            return
+        dt = t - self.pose[0] if self.pose is not None else 0.0
+        self.pose = (t, sample.x, sample.y, yaw, sample.speed)
+        if self.teacher is not None:
+            self.teacher.add(sample.x, sample.y, yaw)
+        if self.line is None:
+            self._publish_command(msg.header.stamp, 0.0)
+            return
+        if self.use_variable_target and self.watchdog.engaged:
+            self.line = self.variable_target.update(self.line, t, sample.x, sample.y, yaw)
+        err = self.line.error(sample.x, sample.y, yaw, sample.speed, self.bidirectional)
+        self.state_pub.publish(GuidanceState(header=msg.header, engaged=self.watchdog.engaged,
+                                             cross_track_error=err.cross_track, heading_error=err.heading_error,
+                                             line_yaw=err.line_yaw, speed=err.speed))
+        angle = self.controller.update(err, min(max(dt, 0.0), MAX_DT)) if self.watchdog.engaged else 0.0
+        self._publish_command(msg.header.stamp, angle)
+
+    def _publish_command(self, stamp, angle: float):
+        engaged = self.watchdog.engaged and math.isfinite(angle)
+        self.angle = angle if engaged else 0.0
+        self.cmd_pub.publish(SteeringCommand(header=Header(stamp=stamp, frame_id="base_link"), engaged=engaged, steering_angle=self.angle,
+                                             steering_rate_limit=self.limits.max_rate))
+
+    def _on_timer(self):
+        self.watchdog.check(self._now())
+
+    def _on_transition(self, transition):
+        if transition.engaged:
+            self.controller.reset()
+            self.variable_target = VariableTargetLine(self.vwa_settings) if self.use_variable_target else None
+        else:
+            self._publish_command(self.get_clock().now().to_msg(), 0.0)
+        text = f"{'ENGAGED' if transition.engaged else 'DISENGAGED'}: {transition.reason}"
+        if transition.engaged or transition.reason == "disengage requested":
+            self.get_logger().info(text)
+        else:
+            self.get_logger().warning(text)
+        self.diagnostics.publish()
+
+    def _diagnose(self):
+        wd = self.watchdog
+        last = wd.transitions[-1] if wd.transitions else None
+        values = {"engaged": wd.engaged, "fault": wd.fault or "none", "controller": self.controller_name,
+                  "line": "none" if self.line is None else f"{self.line.x:.2f},{self.line.y:.2f},{self.line.yaw:.4f}",
+                  "pass": self.pass_index, "rejected_stamps": self.rejected["stamp"],
+                  "rejected_non_finite": self.rejected["non-finite"], "steering_angle": f"{self.angle:.4f}",
+                  "last_transition": "none" if last is None else f"{last.time:.3f} {'engaged' if last.engaged else 'disengaged'}: {last.reason}"}
+        if wd.engaged:
+            return OK, "engaged", values
+        if last is not None and not last.engaged and last.reason != "disengage requested" and wd.fault is not None:
+            return ERROR, f"disengaged by fail-safe: {last.reason}", values
+        return (WARN if wd.fault else OK), f"disengaged ({wd.fault or 'ready'})", values
+
+
+main = main_for(SteeringNode)
