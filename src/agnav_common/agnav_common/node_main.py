@@ -14,7 +14,11 @@ def spin_nodes(nodes, executor, stop):
 
 
 def main_for(node_class):
-    """Return a `main(args=None)` that runs `node_class` alone (parameters from --ros-args)."""
+    """Return a `main(args=None)` that runs `node_class` alone (parameters from --ros-args).
+
+    The node runs until SIGINT/SIGTERM, or until it sets `finished` (e.g. a bag player at the end).
+    `main.node_class` lets the graph runner start the same node in its own process.
+    """
 
     def main(args=None):
         rclpy.init(args=args)
@@ -23,7 +27,7 @@ def main_for(node_class):
         node = None
         try:
             node = node_class()
-            spin_nodes([node], EventsExecutor(), lambda: bool(stopping))
+            spin_nodes([node], EventsExecutor(), lambda: bool(stopping) or getattr(node, "finished", False))
         except KeyboardInterrupt:
             pass
         finally:
@@ -32,4 +36,5 @@ def main_for(node_class):
             rclpy.try_shutdown()
         return 0
 
+    main.node_class = node_class
     return main

@@ -1,0 +1,37 @@
+"""`agnav`: one command for the graph runner, benchmarks, simulator and evaluator."""
+import importlib
+import sys
+
+COMMANDS = {
+    "run": ("agnav_bringup.runner", "start a graph config (replay a bag, record, evaluate)"),
+    "bench": (None, "agnav bench NAME [--json]: run a benchmark (see `agnav bench --list`)"),
+    "sim": ("agnav_drivers.sim.cli", "simulate a scenario into a bag"),
+    "eval": ("agnav_bringup.evaluate", "score a recorded output against ground truth"),
+}
+
+
+def bench(argv):
+    from agnav_bringup import bench as bench_pkg
+    names = bench_pkg.available()
+    if not argv or argv[0] in ("-h", "--help", "--list"):
+        print("usage: agnav bench NAME [--json] [...]\nbenchmarks: " + ", ".join(names))
+        return 0 if argv else 2
+    if argv[0] not in names:
+        print(f"agnav bench: unknown benchmark '{argv[0]}'; available: {', '.join(names)}", file=sys.stderr)
+        return 2
+    return importlib.import_module(f"agnav_bringup.bench.{argv[0]}").main(argv[1:])
+
+
+def main(argv=None):
+    argv = sys.argv[1:] if argv is None else argv
+    if not argv or argv[0] in ("-h", "--help") or argv[0] not in COMMANDS:
+        print("usage: agnav COMMAND [...]\n" + "\n".join(f"  {k:6s} {v[1]}" for k, v in COMMANDS.items()))
+        return 0 if argv and argv[0] in ("-h", "--help") else 2
+    if argv[0] == "bench":
+        return bench(argv[1:])
+    module = importlib.import_module(COMMANDS[argv[0]][0])
+    return int(module.main(argv[1:]) or 0)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,88 @@
+"""Graph configs: YAML with the node list, parameters, remaps, static transforms and the default bag.
+
+```yaml
+description: one line
+bag: bags/asphalt_loop            # default input for replay (relative to the repository root), optional
+record: []                        # topics to record with --record (empty: every topic)
+static_transforms:                # base_link -> sensor mounts for live runs (bags carry /tf_static)
+  - {parent: base_link, child: gnss_link, xyz: [0.0, 0.0, 1.5], rpy: [0.0, 0.0, 0.0]}
+nodes:
+  - executable: nav_sensor_module_node   # console script of an agnav package
+    name: nav_sensor_module              # node name (optional)
+    parameters: {key: value}             # ros__parameters of that node
+    remappings: {/from: /to}
+```
+"""
+import os
+from dataclasses import dataclass, field
+from importlib.metadata import entry_points
+from pathlib import Path
+
+import yaml
+
+CONFIG_DIR = Path(__file__).resolve().parents[1] / "config"
+REPO_ROOT = Path(__file__).resolve().parents[3]
+
+
+@dataclass
+class NodeSpec:
+    executable: str
+    name: str = ""
+    parameters: dict = field(default_factory=dict)
+    remappings: dict = field(default_factory=dict)
+
+    def node_class(self):
+        """The rclpy Node class behind the console script (exposed by agnav_common.node_main.main_for)."""
+        found = entry_points(group="console_scripts", name=self.executable)
+        if not found:
+            raise LookupError(f"no console script '{self.executable}' is installed (run `make setup`)")
+        main = next(iter(found)).load()
+        if not hasattr(main, "node_class"):
+            raise LookupError(f"'{self.executable}' is not an agnav node entry point")
+        return main.node_class
+
+    def ros_args(self):
+        """--ros-args remapping arguments (node name and topics)."""
+        args = ["--ros-args"]
+        if self.name:
+            args += ["-r", f"__node:={self.name}"]
+        for src, dst in self.remappings.items():
+            args += ["-r", f"{src}:={dst}"]
+        return args
+
+
+@dataclass
+class GraphConfig:
+    path: Path
+    description: str = ""
+    bag: str = ""
+    record: list = field(default_factory=list)
+    static_transforms: list = field(default_factory=list)
+    nodes: list = field(default_factory=list)
+
+    def bag_path(self):
+        if not self.bag:
+            return None
+        p = Path(os.path.expanduser(self.bag))
+        return p if p.is_absolute() else REPO_ROOT / p
+
+
+def available_configs():
+    return sorted(p.stem for p in CONFIG_DIR.glob("*.yaml"))
+
+
+def load_config(name_or_path):
+    """A bundled config by name (nsm, gds, ins, steer, replay, ...) or a YAML file path."""
+    path = Path(name_or_path)
+    if not path.suffix:
+        path = CONFIG_DIR / f"{name_or_path}.yaml"
+    if not path.is_file():
+        raise FileNotFoundError(f"config '{name_or_path}' not found; bundled: {', '.join(available_configs())}")
+    raw = yaml.safe_load(path.read_text()) or {}
+    unknown = set(raw) - {"description", "bag", "record", "static_transforms", "nodes"}
+    if unknown:
+        raise ValueError(f"{path}: unknown keys {sorted(unknown)}")
+    nodes = [NodeSpec(**n) for n in raw.get("nodes") or []]
+    return GraphConfig(path=path, description=raw.get("description", ""), bag=raw.get("bag") or "",
+                       record=raw.get("record") or [], static_transforms=raw.get("static_transforms") or [],
+                       nodes=nodes)

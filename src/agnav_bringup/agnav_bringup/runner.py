@@ -1,0 +1,178 @@
+"""`agnav run`: start a graph config in one process (one executor) or one OS process per node.
+
+The bag player and recorder always live in the runner's process; configured nodes join them there, or
+run as child processes (`--processes`, the same graph over DDS). SIGINT/SIGTERM stop everything; a node
+that raises or a child process that dies makes the runner exit non-zero with its error.
+"""
+import argparse
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import yaml
+
+from agnav_bringup.graph_config import REPO_ROOT, load_config
+
+os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")  # DDS never leaves this host
+
+import rclpy  # noqa: E402  (after the discovery range is fixed)
+from rclpy.experimental import EventsExecutor  # noqa: E402
+from rclpy.parameter import Parameter  # noqa: E402
+
+from agnav_common.frames import quaternion_from_euler  # noqa: E402
+from agnav_common.tf import StaticTransformPublisher, make_transform  # noqa: E402
+from agnav_drivers.bag_player_node import BagPlayerNode  # noqa: E402
+from agnav_drivers.bag_recorder_node import BagRecorderNode  # noqa: E402
+
+
+def parse_args(argv):
+    ap = argparse.ArgumentParser(prog="agnav run", description=__doc__.splitlines()[0])
+    ap.add_argument("config", nargs="?", default="nsm", help="bundled config name or YAML path (default nsm)")
+    ap.add_argument("--bag", help="input bag to replay (default: the config's bag)")
+    ap.add_argument("--live", action="store_true", help="no replay: run the nodes on live drivers/simulator")
+    ap.add_argument("--rate", type=float, default=0.0, help="replay rate; 0 = as fast as possible without drops")
+    ap.add_argument("--record", metavar="OUT", help="record to this rosbag2 folder (replaced if it exists)")
+    ap.add_argument("--processes", action="store_true", help="one OS process per node")
+    ap.add_argument("--duration", type=float, default=0.0, help="stop after this many seconds (0: bag end / SIGINT)")
+    ap.add_argument("--no-eval", action="store_true", help="skip the accuracy evaluation after a recorded replay")
+    ap.add_argument("--quiet", action="store_true", help="no progress bar")
+    return ap.parse_args(argv)
+
+
+def static_transform_node(config):
+    """A tiny node publishing the config's static mounts on /tf_static (None when there are none)."""
+    if not config.static_transforms:
+        return None
+    node = rclpy.create_node("agnav_static_transforms")
+    publisher = StaticTransformPublisher(node)
+    publisher.send([make_transform(t["parent"], t["child"], node.get_clock().now().to_msg(),
+                                   t.get("xyz", [0, 0, 0]), quaternion_from_euler(*t.get("rpy", [0, 0, 0])))
+                    for t in config.static_transforms])
+    node._agnav_publisher = publisher  # keep alive with the node
+    return node
+
+
+def params_of(spec, use_sim_time):
+    params = dict(spec.parameters)
+    params["use_sim_time"] = use_sim_time
+    return params
+
+
+class ChildProcesses:
+    """Configured nodes as OS processes, each in its own session so that signals are ours to send."""
+
+    def __init__(self, specs, use_sim_time, workdir):
+        self.procs = []
+        for spec in specs:
+            exe = shutil.which(spec.executable) or str(Path(sys.prefix) / "bin" / spec.executable)
+            pfile = Path(workdir) / f"{spec.name or spec.executable}.yaml"
+            pfile.write_text(yaml.safe_dump({"/**": {"ros__parameters": params_of(spec, use_sim_time)}}))
+            cmd = [exe] + spec.ros_args() + ["--params-file", str(pfile)]
+            self.procs.append((spec, subprocess.Popen(cmd, start_new_session=True)))
+
+    def failure(self):
+        """Description of the first child that has exited, else None."""
+        for spec, proc in self.procs:
+            if proc.poll() is not None:
+                return f"node '{spec.name or spec.executable}' exited with code {proc.returncode}"
+        return None
+
+    def stop(self):
+        for _, proc in self.procs:
+            if proc.poll() is None:
+                proc.send_signal(signal.SIGINT)
+        deadline = time.monotonic() + 5.0
+        for _, proc in self.procs:
+            try:
+                proc.wait(timeout=max(0.1, deadline - time.monotonic()))
+            except subprocess.TimeoutExpired:
+                proc.kill()
+                proc.wait()
+
+
+def run(args):
+    config = load_config(args.config)
+    bag = None if args.live else (Path(args.bag) if args.bag else config.bag_path())
+    use_sim_time = bag is not None
+    record = Path(args.record) if args.record else None
+    if record is not None and record.exists():
+        shutil.rmtree(record)
+
+    rclpy.init(args=["--ros-args"])
+    stopping = []
+    signal.signal(signal.SIGTERM, lambda *_: stopping.append("SIGTERM"))
+    nodes, children, player, recorder, error = [], None, None, None, None
+    workdir = tempfile.mkdtemp(prefix="agnav_run_")
+    try:
+        if args.processes:
+            children = ChildProcesses(config.nodes, use_sim_time, workdir)
+        else:
+            for spec in config.nodes:
+                overrides = [Parameter(k, value=v) for k, v in params_of(spec, use_sim_time).items()]
+                nodes.append(spec.node_class()(parameter_overrides=overrides, cli_args=spec.ros_args()))
+        static = static_transform_node(config)
+        if static is not None:
+            nodes.append(static)
+        if bag is not None:
+            player = BagPlayerNode(parameter_overrides=[
+                Parameter("bag", value=str(bag)), Parameter("rate", value=args.rate),
+                Parameter("progress", value=not args.quiet),
+                Parameter("cache_dir", value=str(REPO_ROOT / "build" / "bag_cache")),
+                Parameter("start_delay", value=3.0 if args.processes else 0.2),
+                Parameter("min_subscribers", value=1 if record is not None else 0)])
+            nodes.append(player)
+        if record is not None:
+            recorder = BagRecorderNode(parameter_overrides=[
+                Parameter("output", value=str(record)), Parameter("topics", value=config.record or [""]),
+                Parameter("use_sim_time", value=use_sim_time)])
+            nodes.append(recorder)
+        executor = EventsExecutor()
+        for node in nodes:
+            executor.add_node(node)
+        started = time.monotonic()
+        finished_at = None
+        print(f"agnav run: {config.path.name}: {len(config.nodes)} node(s)"
+              f"{' as processes' if args.processes else ''}"
+              f"{f', replaying {bag}' if bag else ''}{f', recording {record}' if record else ''}", flush=True)
+        while rclpy.ok() and not stopping:
+            executor.spin_once(timeout_sec=0.05)
+            error = children.failure() if children else None
+            if error:
+                break
+            if args.duration and time.monotonic() - started > args.duration:
+                break
+            if player is not None and player.finished:
+                finished_at = finished_at or time.monotonic()
+                if time.monotonic() - finished_at > (1.0 if args.processes else 0.3):  # let the graph drain
+                    break
+    except KeyboardInterrupt:
+        stopping.append("SIGINT")
+    except Exception as exc:  # a node raised: report and exit non-zero
+        error = f"{type(exc).__name__}: {exc}"
+    finally:
+        if children:
+            children.stop()
+        for node in reversed(nodes):
+            node.destroy_node()
+        rclpy.try_shutdown()
+        shutil.rmtree(workdir, ignore_errors=True)
+    if error:
+        print(f"agnav run: error: {error}", file=sys.stderr)
+        return 1
+    if recorder is not None:
+        print(f"agnav run: recorded {sum(recorder.counts.values())} messages on {len(recorder.counts)} topics "
+              f"to {record}")
+        if bag is not None and not args.no_eval and "/ground_truth/odometry" in recorder.counts \
+                and "/odometry/filtered" in recorder.counts:
+            from agnav_bringup.evaluate import main as evaluate
+            return evaluate([str(record), "--truth", str(bag), "--plots", str(record / "plots")])
+    return 0
+
+
+def main(argv=None):
+    return run(parse_args(sys.argv[1:] if argv is None else argv))

@@ -1,0 +1,142 @@
+"""Bag player: replays a rosbag2/ROS 1 bag with its timing (scaled by `rate`) or as fast as possible.
+
+rate > 0 keeps the bag's timing scaled by rate; rate 0 publishes as fast as the graph consumes: at most
+`window` messages ahead of what this node's own probe subscriptions have received. In one process with
+the EventsExecutor (FIFO events) that means every earlier message has been handled by every node.
+Publishes /clock from the bag timeline (a recorded /clock is not replayed) and /tf_static transient-local.
+"""
+import sys
+import time
+
+from rclpy.node import Node
+from rclpy.qos import QoSProfile
+from rosgraph_msgs.msg import Clock
+
+from agnav_common.diagnostics import OK, WARN, Diagnostics
+from agnav_common.node_main import main_for
+from agnav_common.qos import LATCHED_QOS, SENSOR_QOS
+from agnav_common.stamps import to_stamp
+from agnav_drivers.bag_source import BagSource
+from agnav_drivers.ros_types import message_class
+
+LATCHED_TOPICS = ("/tf_static", "/map_datum")
+
+
+class BagPlayerNode(Node):
+    def __init__(self, **kwargs):
+        super().__init__("bag_player", **kwargs)
+        p = {name: self.declare_parameter(name, default).value for name, default in (
+            ("bag", ""), ("rate", 1.0), ("topics", [""]), ("remap", [""]), ("start_offset", 0.0),
+            ("loop", False), ("clock", True), ("progress", False), ("window", 20), ("start_delay", 1.0),
+            ("min_subscribers", 0), ("cache_dir", ""))}
+        if not p["bag"]:
+            raise ValueError("parameter 'bag' (path of a rosbag2 folder, .mcap, .db3 or ROS 1 .bag) is required")
+        self.rate = float(p["rate"])
+        self.window = int(p["window"])
+        self.loop = bool(p["loop"])
+        self.progress = bool(p["progress"])
+        remap = dict(r.split(":=", 1) for r in p["remap"] if r)
+        self.source = BagSource(p["bag"], topics=[t for t in p["topics"] if t] or None,
+                                start_offset=p["start_offset"], cache_dir=p["cache_dir"] or None)
+        self.publishers_ = {}
+        self.skipped = {}
+        self.published = 0
+        self.received = 0
+        for topic, msgtype in self.source.topics.items():
+            if topic == "/clock":
+                continue
+            try:
+                cls = message_class(msgtype)
+            except (ImportError, AttributeError):
+                self.skipped[topic] = msgtype
+                self.get_logger().warning(f"{topic}: type {msgtype} is not installed here; not replayed")
+                continue
+            out = remap.get(topic, topic)
+            qos = LATCHED_QOS if topic in LATCHED_TOPICS else SENSOR_QOS
+            self.publishers_[topic] = self.create_publisher(cls, out, qos)
+            if self.rate == 0.0:  # probes: count what the graph has received
+                self.create_subscription(cls, out, self._on_probe, QoSProfile(depth=1000), raw=True)
+        self.clock_pub = self.create_publisher(Clock, "/clock", 10) if p["clock"] else None
+        self.finished = False
+        self._iter = None
+        self._start_wall = None
+        self._t0 = None
+        self._last_clock = -1
+        self._pending = None
+        # Start once every topic has min_subscribers matched (probe and recorder count) and start_delay
+        # has passed, so that subscribers in other processes have discovered us; give up waiting after 10 s.
+        self.min_subscribers = int(p["min_subscribers"]) + (1 if self.rate == 0.0 else 0)
+        self._ready_at = time.monotonic() + float(p["start_delay"])
+        self.diagnostics = Diagnostics(self, "bag_player")
+        self.diagnostics.add("replay", self._diagnose)
+        self.create_timer(0.002, self._tick)
+
+    def _on_probe(self, _):
+        self.received += 1
+
+    def _diagnose(self):
+        level = WARN if self.skipped else OK
+        return level, "finished" if self.finished else "playing", {
+            "published": self.published, "skipped_topics": ",".join(self.skipped) or "none"}
+
+    def _restart(self):
+        self._iter = iter(self.source)
+        self._start_wall = time.monotonic()
+        self._t0 = None
+
+    def _ready(self):
+        now = time.monotonic()
+        if now < self._ready_at:
+            return False
+        matched = all(pub.get_subscription_count() >= self.min_subscribers for pub in self.publishers_.values())
+        return matched or now > self._ready_at + 10.0
+
+    def _tick(self):
+        if self.finished or (self._iter is None and not self._ready()):
+            return
+        if self._iter is None:
+            self._restart()
+        budget = self.window - (self.published - self.received) if self.rate == 0.0 else 10_000
+        while budget > 0:
+            msg = self._pending or next(self._iter, None)
+            self._pending = None
+            if msg is None:
+                if self.loop:
+                    self._restart()
+                    continue
+                self._finish()
+                return
+            if self._t0 is None:
+                self._t0 = msg.stamp_ns
+            if self.rate > 0.0 and (msg.stamp_ns - self._t0) / 1e9 / self.rate > time.monotonic() - self._start_wall:
+                self._pending = msg
+                break
+            self._publish(msg)
+            budget -= 1
+        self._show_progress()
+
+    def _publish(self, msg):
+        if self.clock_pub is not None and msg.stamp_ns > self._last_clock:
+            self._last_clock = msg.stamp_ns
+            self.clock_pub.publish(Clock(clock=to_stamp(msg.stamp_ns * 1e-9)))
+        pub = self.publishers_.get(msg.topic)
+        if pub is not None:
+            pub.publish(msg.data)
+            self.published += 1
+
+    def _show_progress(self):
+        if self.progress and self._t0 is not None:
+            span = max(self.source.end_ns - self.source.start_ns, 1)
+            frac = min(max((self._last_clock - self.source.start_ns) / span, 0.0), 1.0)
+            bar = "#" * int(frac * 40)
+            sys.stderr.write(f"\r[{bar:<40}] {frac * 100:5.1f} %  {self.published} msgs")
+            sys.stderr.flush()
+
+    def _finish(self):
+        self.finished = True
+        if self.progress:
+            sys.stderr.write("\n")
+        self.get_logger().info(f"replay finished: {self.published} messages")
+
+
+main = main_for(BagPlayerNode)

@@ -1,0 +1,83 @@
+"""Bag recorder: writes chosen topics (default: every topic of the graph) to a rosbag2 mcap.
+
+Messages are stored raw with their message definitions (Foxglove and `ros2 bag` open the result),
+time-stamped with the node clock (bag time under use_sim_time). Topics appearing later are picked up.
+"""
+from pathlib import Path
+
+from rclpy.node import Node
+from rclpy.qos import QoSProfile
+from rosbags.rosbag2 import StoragePlugin, Writer
+
+from agnav_common.bagio import typestore
+from agnav_common.diagnostics import OK, Diagnostics
+from agnav_common.node_main import main_for
+from agnav_common.qos import LATCHED_QOS
+from agnav_drivers.ros_types import message_class
+
+ALWAYS_EXCLUDED = ("/rosout", "/parameter_events")
+LATCHED_TOPICS = ("/tf_static", "/map_datum")
+
+
+class BagRecorderNode(Node):
+    def __init__(self, **kwargs):
+        super().__init__("bag_recorder", **kwargs)
+        out = self.declare_parameter("output", "").value
+        if not out:
+            raise ValueError("parameter 'output' (rosbag2 folder to create) is required")
+        self.topics = [t for t in self.declare_parameter("topics", [""]).value if t]
+        self.exclude = set(self.declare_parameter("exclude", [""]).value) | set(ALWAYS_EXCLUDED)
+        self.store = typestore()
+        self.writer = Writer(Path(out), version=9, storage_plugin=StoragePlugin.MCAP)
+        self.writer.open()
+        self.connections = {}
+        self.counts = {}
+        self.closed = False
+        self._early = []  # messages received before the (sim) clock started, written at its first tick
+        self._discover()
+        self.create_timer(0.2, self._discover)
+        self.diagnostics = Diagnostics(self, "bag_recorder")
+        self.diagnostics.add("recording", lambda: (OK, f"{sum(self.counts.values())} messages", dict(self.counts)))
+
+    def _discover(self):
+        for topic, types in self.get_topic_names_and_types():
+            if topic in self.connections or topic in self.exclude or (self.topics and topic not in self.topics):
+                continue
+            msgtype = types[0]
+            try:
+                cls = message_class(msgtype)
+            except (ImportError, AttributeError):
+                continue
+            if msgtype not in self.store.types:
+                continue
+            self.connections[topic] = self.writer.add_connection(topic, msgtype, typestore=self.store)
+            self.counts[topic] = 0
+            qos = LATCHED_QOS if topic in LATCHED_TOPICS else QoSProfile(depth=1000)
+            self.create_subscription(cls, topic, lambda data, t=topic: self._write(t, data), qos, raw=True)
+
+    def _write(self, topic, data):
+        if self.closed:
+            return
+        now = self.get_clock().now().nanoseconds
+        if now == 0:
+            self._early.append((topic, data))
+            return
+        for early_topic, early_data in self._early:
+            self.writer.write(self.connections[early_topic], now, early_data)
+            self.counts[early_topic] += 1
+        self._early.clear()
+        self.writer.write(self.connections[topic], now, data)
+        self.counts[topic] += 1
+
+    def close(self):
+        """Finish the bag file (also done on node destruction)."""
+        if not self.closed:
+            self.closed = True
+            self.writer.close()
+
+    def destroy_node(self):
+        self.close()
+        return super().destroy_node()
+
+
+main = main_for(BagRecorderNode)
