@@ -27,6 +27,11 @@ class Accelerometer:
         self.scale = rng.uniform(-params.scale_error, params.scale_error, 3)
         self._lpf = FirstOrderLag.from_bandwidth(params.bandwidth_hz)
 
+    @property
+    def variance(self):
+        """Per-axis variance (m/s^2)^2: white noise plus the turn-on bias spread."""
+        return self.params.noise_mps2 ** 2 + self.params.bias_mps2 ** 2 / 3
+
     def sample(self, dt, specific_force):
         """Measured specific force for the true one (level at rest: (0, 0, +g))."""
         p = self.params

@@ -47,6 +47,11 @@ class Gyro:
         self._angle_noise = np.zeros(3)
         self.bias = self.offset.copy()
 
+    def variance(self, dt):
+        """Per-axis variance (rad/s)^2 of one sample's white error (rate noise, differentiated angle noise)."""
+        p = self.params
+        return math.radians(p.noise_dps) ** 2 + 2 * (math.radians(p.angle_noise_deg) / dt) ** 2
+
     def sample(self, t, dt, omega, moving):
         """Measured rates at time t (s) for true sensor-frame rates omega (rad/s); moving: vehicle in motion."""
         p, rng = self.params, self._rng
