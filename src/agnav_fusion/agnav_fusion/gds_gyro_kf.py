@@ -26,7 +26,7 @@ class KfSettings:
     r_gds: float = 0.0000527340                      # (sin φ_GDS)²
     r_gyro: float = 0.0000010695                     # (sin φ_FOG)²
     p0: list = field(default_factory=lambda: [row[:] for row in P0_DIAGONAL])
-    drift_noise: float = 1e-7                        # μ random walk, 1/s ([IMPL], SPEC §3.5 pitfall; 0 = thesis)
+    drift_noise: float = 0.0                         # μ random walk, 1/s (thesis: 0; [IMPL] SPEC §3.5 pitfall)
     retarget_limit: float = math.radians(20.0)      # re-anchor the target beyond this deviation (cos φ ≈ 1 model)
 
 

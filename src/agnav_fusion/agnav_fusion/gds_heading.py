@@ -55,6 +55,11 @@ def fit_ellipse(bx: np.ndarray, by: np.ndarray) -> CircleCalibration:
     return CircleCalibration(center=center * scale, soft_iron=soft, radius=float(radius * scale))
 
 
+def with_vertical_offset(cal: CircleCalibration, bz_level: np.ndarray, expected_up: float) -> CircleCalibration:
+    """z offset of a level calibration turn from the WMM vertical field (up component −F sin I) [IMPL]."""
+    return CircleCalibration(cal.center, cal.soft_iron, cal.radius, float(np.mean(bz_level)) - expected_up)
+
+
 def tilt_compensate(b: np.ndarray, roll: float, pitch: float) -> np.ndarray:
     """Level a (…, 3) field with B' = F₂(−θ_p) F₁(−θ_r) B (SPEC §3.2 step 2, rotations of eq 4.18–4.19)."""
     b = np.asarray(b, float)

@@ -17,14 +17,17 @@ class ExpectedField:
     total: float
     horizontal: float
     decimal_year: float
-    extrapolated: bool   # the date was outside every model's life span and was clamped
+    extrapolated: bool   # the stamp's date was outside every model's span: the fallback date was used
 
 
 class MagneticModel:
     """Declination/inclination/intensity from WMM (pygeomag); cached per ~1 km cell and day."""
 
-    def __init__(self, coefficients_file: str | None = None, first_year: float = 2010.0, last_year: float = 2029.99):
+    def __init__(self, coefficients_file: str | None = None, fallback_year: float | None = None,
+                 first_year: float = 2010.0, last_year: float = 2029.99):
+        """fallback_year replaces dates outside the models' span (e.g. simulation stamps from 0); None = today."""
         self._file = coefficients_file
+        self._fallback = fallback_year
         self._span = (first_year, last_year)
         self._models: dict = {}
         self._cache: dict = {}
@@ -41,8 +44,11 @@ class MagneticModel:
         return self.at_year(lat_deg, lon_deg, alt_m, decimal_year_from_date(date))
 
     def at_year(self, lat_deg: float, lon_deg: float, alt_m: float, year: float) -> ExpectedField:
-        """WMM field at a decimal year; dates outside the models' span are clamped and flagged."""
-        clamped = min(max(year, self._span[0]), self._span[1])
+        """WMM field at a decimal year; dates outside the models' span use the fallback date and are flagged."""
+        clamped = year
+        if not self._span[0] <= year <= self._span[1]:
+            fallback = self._fallback or decimal_year_from_date(dt.datetime.now(dt.timezone.utc))
+            clamped = min(max(fallback, self._span[0]), self._span[1])
         key = (round(lat_deg, 2), round(lon_deg, 2), round(alt_m, -3), round(clamped, 2))
         if key not in self._cache:
             r = self._geomag(clamped).calculate(glat=lat_deg, glon=lon_deg, alt=alt_m / 1000.0, time=clamped,
