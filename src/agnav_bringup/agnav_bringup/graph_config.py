@@ -43,9 +43,7 @@ class NodeSpec:
 
     def ros_args(self):
         """--ros-args remapping arguments (node name and topics)."""
-        args = ["--ros-args"]
-        if self.name:
-            args += ["-r", f"__node:={self.name}"]
+        args = ["--ros-args", "-r", f"__node:={self.name or self.executable}"]
         for src, dst in self.remappings.items():
             args += ["-r", f"{src}:={dst}"]
         return args

@@ -75,6 +75,16 @@ class ChildProcesses:
             cmd = [exe] + spec.ros_args() + ["--params-file", str(pfile)]
             self.procs.append((spec, subprocess.Popen(cmd, start_new_session=True)))
 
+    def wait_until_discovered(self, probe, timeout):
+        """Block until every child node is in the ROS graph (a replay must not start before)."""
+        names = {spec.name or spec.executable for spec, _ in self.procs}
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline and not self.failure():
+            if names <= set(probe.get_node_names()):
+                break
+            time.sleep(0.1)
+        probe.destroy_node()
+
     def failure(self):
         """Description of the first child that has exited, else None."""
         for spec, proc in self.procs:
@@ -118,12 +128,14 @@ def run(args):
         static = static_transform_node(config)
         if static is not None:
             nodes.append(static)
+        if children:
+            children.wait_until_discovered(rclpy.create_node("agnav_runner"), timeout=30.0)
         if bag is not None:
             player = BagPlayerNode(parameter_overrides=[
                 Parameter("bag", value=str(bag)), Parameter("rate", value=args.rate),
                 Parameter("progress", value=not args.quiet),
                 Parameter("cache_dir", value=str(REPO_ROOT / "build" / "bag_cache")),
-                Parameter("start_delay", value=3.0 if args.processes else 0.2),
+                Parameter("start_delay", value=2.0 if args.processes else 0.5),
                 Parameter("min_subscribers", value=1 if record is not None else 0)])
             nodes.append(player)
         if record is not None:

@@ -5,18 +5,17 @@ time-stamped with the node clock (bag time under use_sim_time). Topics appearing
 """
 from pathlib import Path
 
+from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
-from rclpy.qos import QoSProfile
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from rosbags.rosbag2 import StoragePlugin, Writer
 
 from agnav_common.bagio import typestore
 from agnav_common.diagnostics import OK, Diagnostics
 from agnav_common.node_main import main_for
-from agnav_common.qos import LATCHED_QOS
 from agnav_drivers.ros_types import message_class
 
 ALWAYS_EXCLUDED = ("/rosout", "/parameter_events")
-LATCHED_TOPICS = ("/tf_static", "/map_datum")
 
 
 class BagRecorderNode(Node):
@@ -35,7 +34,7 @@ class BagRecorderNode(Node):
         self.closed = False
         self._early = []  # messages received before the (sim) clock started, written at its first tick
         self._discover()
-        self.create_timer(0.2, self._discover)
+        self.create_timer(0.2, self._discover, clock=Clock(clock_type=ClockType.STEADY_TIME))  # not sim time
         self.diagnostics = Diagnostics(self, "bag_recorder")
         self.diagnostics.add("recording", lambda: (OK, f"{sum(self.counts.values())} messages", dict(self.counts)))
 
@@ -52,8 +51,18 @@ class BagRecorderNode(Node):
                 continue
             self.connections[topic] = self.writer.add_connection(topic, msgtype, typestore=self.store)
             self.counts[topic] = 0
-            qos = LATCHED_QOS if topic in LATCHED_TOPICS else QoSProfile(depth=1000)
+            qos = self._qos_for(topic)
             self.create_subscription(cls, topic, lambda data, t=topic: self._write(t, data), qos, raw=True)
+
+    def _qos_for(self, topic):
+        """Subscription QoS compatible with every publisher: reliable/latched only if all offer it."""
+        offered = [info.qos_profile for info in self.get_publishers_info_by_topic(topic)]
+        qos = QoSProfile(depth=1000)
+        if offered and any(q.reliability == ReliabilityPolicy.BEST_EFFORT for q in offered):
+            qos.reliability = ReliabilityPolicy.BEST_EFFORT
+        if offered and all(q.durability == DurabilityPolicy.TRANSIENT_LOCAL for q in offered):
+            qos.durability = DurabilityPolicy.TRANSIENT_LOCAL
+        return qos
 
     def _write(self, topic, data):
         if self.closed:
