@@ -21,6 +21,7 @@ setup(
     license="Apache-2.0",
     entry_points={
         "console_scripts": [
+            "heading_node = agnav_fusion.heading_node:main",
         ],
     },
 )

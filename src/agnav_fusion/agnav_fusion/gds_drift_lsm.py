@@ -20,7 +20,7 @@ class DriftLsmSettings:
     dt: float = 0.02
 
 
-class _Unwrapper:
+class Unwrapper:
     """Continuous heading from wrapped samples."""
 
     def __init__(self):
@@ -38,7 +38,7 @@ class GyroDriftLsm:
         self.s = settings or DriftLsmSettings()
         self._gds = deque(maxlen=self.s.window + 2)                     # φ_GDS(t−M−1) … φ_GDS(t)
         self._cum = deque(maxlen=self.s.window + self.s.delay + 2)      # Σ_{j≤k} ω_gyro(j) dt
-        self._unwrap = _Unwrapper()
+        self._unwrap = Unwrapper()
         self.drift = 0.0          # d (3.14), rad/s; 0 until the first full window
         self.ready = False
 
@@ -70,7 +70,7 @@ class DelayCompensatedVwa:
         self.s = settings or DelayedVwaSettings()
         self._vwa = VariableTargetVwa(VwaSettings(self.s.window, self.s.interval))
         self._gyro = deque(maxlen=self.s.delay + 1)     # φ_Gyro(t−D) … φ_Gyro(t)
-        self._unwrap = _Unwrapper()
+        self._unwrap = Unwrapper()
         self._n = 0
 
     @property

@@ -1,0 +1,265 @@
+"""Absolute heading from the GDS (fluxgate) or GNSS with a yaw gyro (SPEC §3–§5; issue 5).
+
+Subscribes
+  /imu/mag (sensor_msgs/MagneticField, tesla, mag_link), /imu/data_raw (sensor_msgs/Imu, gyro),
+  /imu/data (sensor_msgs/Imu, roll/pitch; tilt_source=imu_data) or /inclinometer (agnav_msgs/Inclination,
+  denoised by the ALE; tilt_source=inclinometer), /gnss/fix (declination at the fix, GNSS estimator, speed).
+Publishes
+  /heading/imu (sensor_msgs/Imu, frame base_link): orientation = REP-103 roll, pitch (from the tilt source) and
+  ENU yaw = π/2 − φ_true (SPEC §2.3) with the estimator's yaw variance in orientation_covariance[8]
+  (roll/pitch variances from the tilt source, 99999 when unknown); angular_velocity = base_link gyro rates with
+  the estimated yaw drift removed (covariance unknown: [0] = -1); linear_acceleration_covariance[0] = -1.
+  Stamp = the heading's epoch. /diagnostics: rejected inputs, stale streams, declination source, disturbance.
+Parameter `estimator`: gds_kf (§3.5) | vwa (§3.6) | gds_gyro_lsm (§4.5–4.7) | gnss_gyro_lsm (§5.1–5.2).
+Magnetic disturbance: a levelled field whose intensity or inclination is off the WMM value is flagged (WARN)
+and the GDS variance is multiplied by disturbance.deweight_factor while it lasts.
+"""
+import math
+from collections import deque
+
+import numpy as np
+from agnav_common.diagnostics import ERROR, OK, WARN, Diagnostics
+from agnav_common.frames import euler_from_quaternion, quaternion_from_euler, yaw_from_heading
+from agnav_common.geodesy import LocalTangentPlane
+from agnav_common.node_main import main_for
+from agnav_common.qos import SENSOR_QOS
+from agnav_common.stamps import StampGuard, to_sec, to_stamp
+from agnav_common.tf import TfBuffer
+from agnav_msgs.msg import Inclination
+from rclpy.node import Node
+from scipy.spatial.transform import Rotation
+from sensor_msgs.msg import Imu, MagneticField, NavSatFix
+
+from agnav_fusion.adaptive_line_enhancer import AdaptiveLineEnhancer, AleSettings
+from agnav_fusion.gds_heading import CircleCalibration, inclination, magnetic_heading, tilt_compensate
+from agnav_fusion.geomagnetic_model import DisturbanceSettings, MagneticModel, disturbance
+from agnav_fusion.heading_estimators import EstimatorSettings, HeadingEstimator
+from agnav_fusion.gds_gyro_kf import KfSettings
+from agnav_fusion.variance_weighted_average import VwaSettings
+
+UNKNOWN_VARIANCE = 99999.0
+MAX_GYRO_GAP = 0.5   # s; longer gaps restart the gyro integration step
+
+
+class HeadingNode(Node):
+    def __init__(self, **kwargs):
+        super().__init__("heading_node", **kwargs)
+        p = lambda name, default: self.declare_parameter(name, default).value  # noqa: E731
+        self.base_frame = p("base_frame", "base_link")
+        self.tilt_source = p("tilt_source", "imu_data")
+        if self.tilt_source not in ("imu_data", "inclinometer", "none"):
+            raise ValueError("tilt_source must be imu_data | inclinometer | none")
+        self.cal = CircleCalibration(np.array(p("mag.center", [0.0, 0.0]), float),
+                                     np.array(p("mag.soft_iron", [1.0, 0.0, 0.0, 1.0]), float).reshape(2, 2),
+                                     z_offset=p("mag.z_offset", 0.0))
+        ale = AleSettings(n_taps=p("ale.n_taps", 50), delay=p("ale.delay", 1), mu=p("ale.mu", AleSettings.mu))
+        self.ale = (AdaptiveLineEnhancer(ale), AdaptiveLineEnhancer(ale))
+        self.incl_rate = p("inclinometer_rate", 50.0)
+        default_delay = self.ale[0].delay_samples() / self.incl_rate if self.tilt_source == "inclinometer" else 0.0
+        gds_delay = p("gds_delay", -1.0)
+        self.tilt_delay = default_delay if gds_delay < 0 else gds_delay
+        self.site = list(p("declination_site", [0.0]))   # [lat, lon, alt] used before the first fix
+        fallback = p("wmm_fallback_year", 0.0)
+        self.wmm = MagneticModel(fallback_year=fallback or None)
+        self.dist = DisturbanceSettings(p("disturbance.intensity_tolerance", 0.10),
+                                        math.radians(p("disturbance.inclination_tolerance_deg", 5.0)),
+                                        p("disturbance.deweight_factor", 25.0))
+        kf, vwa = KfSettings(), VwaSettings()
+        self.settings = EstimatorSettings(
+            estimator=p("estimator", "gds_kf"),
+            kf=KfSettings(drift_noise=p("kf.drift_noise", 1e-7), retarget_limit=kf.retarget_limit),
+            vwa=VwaSettings(p("vwa.window", vwa.window), p("vwa.interval", vwa.interval)),
+            lsm_window_s=p("lsm.window", 3.5),
+            lsm_vwa=VwaSettings(p("lsm.vwa_window", 15.0), p("lsm.vwa_interval", 5.0)),
+            gds_delay_s=self.tilt_delay, imu_rate_hz=p("imu_rate", 50.0),
+            nominal_speed=p("nominal_speed", 0.5))
+        self.estimator = HeadingEstimator(self.settings)
+        self.stale_timeout = p("stale_timeout", 1.0)
+
+        self.stamp_guards = {k: StampGuard() for k in ("gyro", "mag", "tilt", "fix")}
+        self.rejected = {"stamp": 0, "non-finite": 0, "no-tf": 0, "no-tilt": 0, "no-declination": 0}
+        self.last_seen = {}
+        self.tilt = deque(maxlen=500)            # (epoch, roll_thesis, pitch_thesis, var_roll, var_pitch)
+        self.pending_mag = deque(maxlen=200)     # (t, b_thesis) waiting for tilt at their epoch
+        self.fix = None                          # (lat, lon, alt)
+        self.plane = None
+        self.disturbed = False
+        self.field_error = (0.0, 0.0)
+        self.published = 0
+        self.last_heading = None
+        self._gyro_t = None
+        self._rates = np.zeros(3)
+        self.tf = TfBuffer(self)
+
+        self.pub = self.create_publisher(Imu, "/heading/imu", SENSOR_QOS)
+        self.create_subscription(Imu, "/imu/data_raw", self._on_gyro, SENSOR_QOS)
+        self.create_subscription(MagneticField, "/imu/mag", self._on_mag, SENSOR_QOS)
+        self.create_subscription(NavSatFix, "/gnss/fix", self._on_fix, SENSOR_QOS)
+        if self.tilt_source == "imu_data":
+            self.create_subscription(Imu, "/imu/data", self._on_imu_data, SENSOR_QOS)
+        elif self.tilt_source == "inclinometer":
+            self.create_subscription(Inclination, "/inclinometer", self._on_inclinometer, SENSOR_QOS)
+        self.diagnostics = Diagnostics(self, "heading")
+        self.diagnostics.add("heading", self._diagnose)
+
+    # ---- input helpers ------------------------------------------------------------------------------------
+    def _accept(self, stream, stamp, values):
+        t = to_sec(stamp)
+        if not all(math.isfinite(v) for v in values):
+            self.rejected["non-finite"] += 1
+            return None
+        if self.stamp_guards[stream].check(t) is not None:
+            self.rejected["stamp"] += 1
+            return None
+        self.last_seen[stream] = t
+        return t
+
+    def _to_base(self, frame_id, vec):
+        tf = self.tf.lookup(self.base_frame, frame_id or self.base_frame)
+        if tf is None:
+            self.rejected["no-tf"] += 1
+            return None
+        return Rotation.from_quat(tf[1]).apply(vec)
+
+    # ---- callbacks ----------------------------------------------------------------------------------------
+    def _on_gyro(self, msg: Imu):
+        w = msg.angular_velocity
+        t = self._accept("gyro", msg.header.stamp, (w.x, w.y, w.z))
+        if t is None:
+            return
+        rates = self._to_base(msg.header.frame_id, [w.x, w.y, w.z])
+        if rates is None:
+            return
+        dt = t - self._gyro_t if self._gyro_t is not None and t - self._gyro_t < MAX_GYRO_GAP else 0.0
+        self._gyro_t, self._rates = t, rates
+        out = self.estimator.on_gyro(t, -rates[2], dt, self._scale())
+        if out is not None and dt > 0.0:
+            self._publish(*out)
+
+    def _on_imu_data(self, msg: Imu):
+        q = msg.orientation
+        t = self._accept("tilt", msg.header.stamp, (q.x, q.y, q.z, q.w))
+        if t is None:
+            return
+        roll, pitch, _ = euler_from_quaternion(q.x, q.y, q.z, q.w)
+        cov = msg.orientation_covariance
+        self._add_tilt(t, roll, pitch, cov[0], cov[4])
+
+    def _on_inclinometer(self, msg: Inclination):
+        t = self._accept("tilt", msg.header.stamp, (msg.roll, msg.pitch))
+        if t is None:
+            return
+        roll, pitch = self.ale[0].update(msg.roll), self.ale[1].update(msg.pitch)
+        self._add_tilt(t - self.tilt_delay, roll, pitch, msg.roll_variance, msg.pitch_variance)
+
+    def _add_tilt(self, epoch, roll, pitch, var_roll, var_pitch):
+        """Store tilt in thesis convention (pitch nose up) and release the GDS samples it now covers."""
+        self.tilt.append((epoch, roll, -pitch, var_roll, var_pitch))
+        while self.pending_mag and self.pending_mag[0][0] <= epoch:
+            self._process_mag(*self.pending_mag.popleft())
+
+    def _on_mag(self, msg: MagneticField):
+        f = msg.magnetic_field
+        t = self._accept("mag", msg.header.stamp, (f.x, f.y, f.z))
+        if t is None:
+            return
+        b = self._to_base(msg.header.frame_id, [f.x, f.y, f.z])
+        if b is None:
+            return
+        b_thesis = self.cal.apply(np.array([-b[1], b[0], b[2]]))
+        if self.tilt_source == "none" or (self.tilt and self.tilt[-1][0] >= t):
+            self._process_mag(t, b_thesis)
+        else:
+            self.pending_mag.append((t, b_thesis))
+
+    def _tilt_at(self, t):
+        if self.tilt_source == "none":
+            return 0.0, 0.0
+        if not self.tilt or t < self.tilt[0][0]:
+            return None
+        ts = np.array([s[0] for s in self.tilt])
+        return (float(np.interp(t, ts, [s[1] for s in self.tilt])), float(np.interp(t, ts, [s[2] for s in self.tilt])))
+
+    def _process_mag(self, t, b_thesis):
+        tilt = self._tilt_at(t)
+        if tilt is None:
+            self.rejected["no-tilt"] += 1
+            return
+        expected = self._expected_field(t)
+        if expected is None:
+            self.rejected["no-declination"] += 1
+            return
+        level = tilt_compensate(b_thesis, *tilt)
+        self.disturbed, *self.field_error = disturbance(float(np.linalg.norm(level)), float(inclination(level)),
+                                                        expected, self.dist)
+        heading = float(magnetic_heading(level)) + expected.declination
+        out = self.estimator.on_gds(t, heading, self._scale())
+        if out is not None:
+            self._publish(*out)
+
+    def _expected_field(self, t):
+        site = self.fix or (tuple(self.site) if len(self.site) == 3 else None)
+        return None if site is None else self.wmm.at(*site, t)
+
+    def _on_fix(self, msg: NavSatFix):
+        t = self._accept("fix", msg.header.stamp, (msg.latitude, msg.longitude, msg.altitude))
+        if t is None or msg.status.status < 0:
+            return
+        self.fix = (msg.latitude, msg.longitude, msg.altitude)
+        if self.plane is None:
+            self.plane = LocalTangentPlane(*self.fix)
+        e, n, _ = self.plane.to_enu(*self.fix)
+        cov = msg.position_covariance
+        var = 0.5 * (cov[0] + cov[4]) if msg.position_covariance_type > 0 else 1.0
+        self.estimator.on_fix(t, float(e), float(n), var)
+
+    def _scale(self):
+        return self.dist.deweight_factor if self.disturbed else 1.0
+
+    # ---- output -------------------------------------------------------------------------------------------
+    def _publish(self, t, heading, variance):
+        if not (math.isfinite(heading) and math.isfinite(variance)):
+            self.rejected["non-finite"] += 1
+            return
+        tilt = self._tilt_at(t) if self.tilt_source != "none" else None
+        roll, pitch_up = tilt if tilt is not None else (0.0, 0.0)
+        last = self.tilt[-1] if self.tilt else None
+        var_rp = (last[3], last[4]) if last is not None and last[3] > 0 else (UNKNOWN_VARIANCE, UNKNOWN_VARIANCE)
+        msg = Imu()
+        msg.header.stamp = to_stamp(t)
+        msg.header.frame_id = self.base_frame
+        q = quaternion_from_euler(roll, -pitch_up, float(yaw_from_heading(heading)))
+        msg.orientation.x, msg.orientation.y, msg.orientation.z, msg.orientation.w = q
+        msg.orientation_covariance = [var_rp[0], 0.0, 0.0, 0.0, var_rp[1], 0.0, 0.0, 0.0, float(variance)]
+        wx, wy, wz = (float(v) for v in self._rates)
+        msg.angular_velocity.x, msg.angular_velocity.y = wx, wy
+        msg.angular_velocity.z = wz - self.estimator.drift      # ω_z = −(r + d)
+        msg.angular_velocity_covariance[0] = -1.0
+        msg.linear_acceleration_covariance[0] = -1.0
+        self.pub.publish(msg)
+        self.published += 1
+        self.last_heading = (t, heading, variance)
+
+    def _diagnose(self):
+        now = max(self.last_seen.values(), default=0.0)
+        needed = ["gyro"] + (["fix"] if self.settings.estimator == "gnss_gyro_lsm" else ["mag"])
+        if self.tilt_source != "none" and self.settings.estimator != "gnss_gyro_lsm":
+            needed.append("tilt")
+        stale = [k for k in needed if now - self.last_seen.get(k, -math.inf) > self.stale_timeout]
+        values = {"estimator": self.settings.estimator, "published": self.published, **self.rejected,
+                  "field_intensity_error": f"{self.field_error[0]:.3f}",
+                  "field_inclination_error_deg": f"{math.degrees(self.field_error[1]):.2f}",
+                  "declination_source": "fix" if self.fix else ("site" if len(self.site) == 3 else "none"),
+                  "gyro_drift_deg_s": f"{math.degrees(self.estimator.drift):.4f}"}
+        if self.last_heading:
+            values["heading_std_deg"] = f"{math.degrees(math.sqrt(self.last_heading[2])):.3f}"
+        if stale:
+            return ERROR, f"stale: {', '.join(stale)}", values
+        if self.disturbed:
+            return WARN, "magnetic disturbance: field off the WMM value, GDS de-weighted", values
+        if self.settings.estimator != "gnss_gyro_lsm" and values["declination_source"] == "none":
+            return WARN, "no fix/site for the WMM declination: GDS heading withheld", values
+        return OK, "ok", values
+
+
+main = main_for(HeadingNode)
