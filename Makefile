@@ -11,7 +11,7 @@ setup:
 	@bash tools/setup.sh
 
 run: setup
-	$(VENV)/bin/agnav run $(ARGS)
+	$(VENV)/bin/agnav run $(or $(ARGS),--record out/run)
 
 test: setup
 	@bash tools/test.sh $(ARGS)

@@ -1,0 +1,155 @@
+"""`agnav bench replay`: graph replay throughput and /imu/data_raw hop latency at 200 Hz.
+
+Latency is publish-to-callback time of sensor_msgs/Imu at 200 Hz (stamp = wall time at publish):
+agnav nodes on one EventsExecutor in one process, agnav nodes in two processes (`--processes`
+layout) and a bare rclpy pub/sub pair (default executor, two processes) measured in the same run.
+"""
+import argparse
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+
+import numpy as np  # noqa: E402
+import rclpy  # noqa: E402
+from rclpy.executors import SingleThreadedExecutor  # noqa: E402
+from rclpy.experimental import EventsExecutor  # noqa: E402
+from sensor_msgs.msg import Imu  # noqa: E402
+
+from agnav_bringup.graph_config import load_config  # noqa: E402
+from agnav_common.qos import SENSOR_QOS  # noqa: E402
+from agnav_common.stamps import to_sec, to_stamp  # noqa: E402
+from agnav_drivers.bag_source import BagSource  # noqa: E402
+
+RATE_HZ = 200.0
+
+
+def source_node(count):
+    node = rclpy.create_node("latency_source")
+    pub = node.create_publisher(Imu, "/imu/data_raw", SENSOR_QOS)
+    sent = []
+
+    def tick():
+        if len(sent) < count and pub.get_subscription_count() > 0:
+            msg = Imu()
+            msg.header.stamp = to_stamp(time.time())
+            pub.publish(msg)
+            sent.append(1)
+    node.create_timer(1.0 / RATE_HZ, tick)
+    return node, sent
+
+
+def sink_node(latencies):
+    node = rclpy.create_node("latency_sink")
+    node.create_subscription(Imu, "/imu/data_raw", lambda m: latencies.append(time.time() - to_sec(m.header.stamp)),
+                             SENSOR_QOS)
+    return node
+
+
+def spin_until(executor, done, timeout):
+    deadline = time.monotonic() + timeout
+    while not done() and time.monotonic() < deadline:
+        executor.spin_once(timeout_sec=0.05)
+
+
+def run_sink_process(count, bare, out):
+    """Child process: receive `count` messages, write latencies (s) as JSON."""
+    rclpy.init()
+    latencies = []
+    node = sink_node(latencies)
+    executor = SingleThreadedExecutor() if bare else EventsExecutor()
+    executor.add_node(node)
+    spin_until(executor, lambda: len(latencies) >= count, timeout=60 + count / RATE_HZ)
+    Path(out).write_text(json.dumps(latencies))
+    node.destroy_node()
+    rclpy.try_shutdown()
+
+
+def latency_single_process(count):
+    rclpy.init()
+    latencies = []
+    source, _ = source_node(count)
+    sink = sink_node(latencies)
+    executor = EventsExecutor()
+    executor.add_node(source)
+    executor.add_node(sink)
+    spin_until(executor, lambda: len(latencies) >= count, timeout=30 + count / RATE_HZ)
+    source.destroy_node()
+    sink.destroy_node()
+    rclpy.try_shutdown()
+    return latencies
+
+
+def latency_two_processes(count, bare):
+    with tempfile.TemporaryDirectory() as tmp:
+        out = Path(tmp) / "lat.json"
+        child = subprocess.Popen([sys.executable, "-m", "agnav_bringup.bench.replay", "--sink", str(count), str(out)]
+                                 + (["--bare"] if bare else []))
+        rclpy.init()
+        source, sent = source_node(count)
+        executor = SingleThreadedExecutor() if bare else EventsExecutor()
+        executor.add_node(source)
+        spin_until(executor, lambda: child.poll() is not None, timeout=90 + count / RATE_HZ)
+        source.destroy_node()
+        rclpy.try_shutdown()
+        child.wait(timeout=10)
+        return json.loads(out.read_text()) if out.exists() else []
+
+
+def percentiles_ms(latencies):
+    a = np.asarray(latencies) * 1e3
+    return {"p50_ms": round(float(np.percentile(a, 50)), 3), "p99_ms": round(float(np.percentile(a, 99)), 3),
+            "n": int(a.size)}
+
+
+def replay_throughput(config):
+    cfg = load_config(config)
+    bag = BagSource(cfg.bag_path())
+    duration = (bag.end_ns - bag.start_ns) / 1e9
+    count = bag.message_count
+    bag.close()
+    with tempfile.TemporaryDirectory() as tmp:
+        start = time.monotonic()
+        result = subprocess.run([sys.executable, "-m", "agnav_bringup.cli", "run", config, "--record",
+                                 str(Path(tmp) / "rec"), "--quiet", "--no-eval"], capture_output=True, text=True)
+        wall = time.monotonic() - start
+    if result.returncode != 0:
+        raise RuntimeError(f"agnav run {config} failed: {result.stderr[-2000:]}")
+    return {"config": config, "bag_messages": count, "bag_seconds": round(duration, 1), "wall_s": round(wall, 2),
+            "messages_per_s": round(count / wall), "x_real_time": round(duration / wall, 1)}
+
+
+def main(argv):
+    ap = argparse.ArgumentParser(prog="agnav bench replay", description=__doc__.splitlines()[0])
+    ap.add_argument("--json", action="store_true")
+    ap.add_argument("--config", default="nsm", help="graph replayed for throughput (default nsm)")
+    ap.add_argument("--samples", type=int, default=2000, help="latency samples per variant (200 Hz)")
+    ap.add_argument("--sink", nargs=2, metavar=("COUNT", "OUT"), help=argparse.SUPPRESS)
+    ap.add_argument("--bare", action="store_true", help=argparse.SUPPRESS)
+    args = ap.parse_args(argv)
+    if args.sink:
+        run_sink_process(int(args.sink[0]), args.bare, args.sink[1])
+        return 0
+    results = {"replay": replay_throughput(args.config),
+               "latency_single_process": percentiles_ms(latency_single_process(args.samples)),
+               "latency_processes": percentiles_ms(latency_two_processes(args.samples, bare=False)),
+               "latency_bare_rclpy": percentiles_ms(latency_two_processes(args.samples, bare=True))}
+    r = results["replay"]
+    print(f"replay {r['config']}: {r['bag_messages']} msgs, {r['bag_seconds']} s of bag in {r['wall_s']} s wall "
+          f"(incl. start-up): {r['messages_per_s']} msg/s, {r['x_real_time']}x real time")
+    print(f"{'/imu/data_raw hop at 200 Hz':32s} {'p50 ms':>8s} {'p99 ms':>8s} {'n':>6s}")
+    for key in ("latency_single_process", "latency_processes", "latency_bare_rclpy"):
+        v = results[key]
+        print(f"{key.removeprefix('latency_'):32s} {v['p50_ms']:8.3f} {v['p99_ms']:8.3f} {v['n']:6d}")
+    if args.json:
+        print(json.dumps(results))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))
