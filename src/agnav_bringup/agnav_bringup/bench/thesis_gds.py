@@ -33,7 +33,7 @@ ENV05D = GyroParams(bandwidth_hz=7.0, range_dps=80.0, scale_error=0.01, offset_d
                     motion_bias_dps=(0.0, 0.0, -0.14), motion_bias_spread=0.2, warmup_dps=0.36, noise_dps=0.3)
 ACCUSTAR = InclParams(tau_s=0.3, offset_deg=0.05, scale_error=0.01, cross_axis=0.01, noise_deg=0.6, range_deg=45.0)
 CH3_RUN = dict(route=straight(50.0), driver=DriverParams(speed_mps=0.5, accel_mps2=0.3, weave_deg=0.5),
-               vehicle=GL320, terrain=TerrainParams(rough_deg=1.0, rough_wavelength_m=(2.0, 8.0)),
+               vehicle=GL320,
                imu_rate_hz=50.0, mag_rate_hz=50.0, gyro=ENV05D, incl=ACCUSTAR)
 
 
