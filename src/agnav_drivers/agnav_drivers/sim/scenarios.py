@@ -21,7 +21,7 @@ SAPPORO = (43.0730, 141.3380, 45.0)
 def env05f(motion_bias_dps):
     """Murata ENV-05F-03/-52, SPEC §11.4: 10 Hz, ±60°/s, noise ≤ 0.4°/s; per-run motion bias (REP-103 axes)."""
     return GyroParams(bandwidth_hz=10.0, range_dps=60.0, scale_error=0.01, offset_dps=0.5,
-                      motion_bias_dps=motion_bias_dps, motion_bias_spread=0.2, noise_dps=0.25)
+                      motion_bias_dps=motion_bias_dps, motion_bias_spread=0.1, noise_dps=0.25)
 
 
 def fog(drift_dps):
@@ -31,13 +31,13 @@ def fog(drift_dps):
 
 
 # Omron D5R-L02-15, SPEC §11.6: τ ≈ 1.1 s, ±15°, zero ±0.5° (levelled at install to ±0.3°), scale ±3 %.
-D5R = InclParams(tau_s=1.1, offset_deg=0.3, scale_error=0.03, cross_axis=0.01, noise_deg=0.1, range_deg=15.0)
+D5R = InclParams(tau_s=1.1, offset_deg=0.4, scale_error=0.03, cross_axis=0.01, noise_deg=0.15, range_deg=15.0)
 # JCS-7401A roll/pitch outputs used as the tilt source in Ch. II/IV: reference quality, not fooled by acceleration.
 JCS_TILT = InclParams(tau_s=0.0, offset_deg=0.05, scale_error=0.01, cross_axis=0.0, noise_deg=0.05,
                       range_deg=90.0, accel_sensitivity=0.0)
 SERVO_ACCEL = AccelParams()
 
-STARFIRE = GnssParams(model="NavCom StarFire SF-2050M", rate_hz=1.0, bias_sigma_m=0.05, bias_tau_s=120.0,
+STARFIRE = GnssParams(model="NavCom StarFire SF-2050M", rate_hz=1.0, bias_sigma_m=0.05, bias_tau_s=60.0,
                       white_sigma_m=0.025, latency_s=0.02, vel_noise_mps=0.03, fix_type=FIX_DGPS)
 AGGPS132 = GnssParams(model="Trimble AgGPS132", rate_hz=1.0, bias_sigma_m=0.7, bias_tau_s=300.0,
                       white_sigma_m=0.015, latency_s=0.15, vel_noise_mps=0.05, fix_type=FIX_DGPS,
@@ -86,46 +86,47 @@ def _build():
     return [
         Scenario("asphalt_loop", "R5-1..3: flat asphalt ≈15×45 m loop, ≈200 s, 0.8 m/s, ENV-05F-03 ×3 + D5R ×2 "
                  "at 100 Hz, StarFire 1 Hz", route=rounded_loop(45.0, 15.0, 4.0, overlap_m=30.0),
-                 terrain=TerrainParams(rough_deg=0.3, rough_wavelength_m=(1.0, 4.0)),
-                 gyro=env05f((-0.095, 0.084, -0.036)), **ch5),
+                 terrain=TerrainParams(rough_rms_deg=0.1, rough_wavelength_m=(1.0, 4.0)),
+                 gyro=env05f((-0.115, 0.115, -0.05)), **ch5),
         Scenario("grass_slope", "R5-4..6: ≈80 s straight at 0.8 m/s on grass, roll growing to ≈10° right-down",
                  route=straight(64.0),
-                 terrain=TerrainParams(rough_deg=1.0, rough_wavelength_m=(2.0, 8.0), slope_deg=10.0,
+                 terrain=TerrainParams(rough_rms_deg=1.0, rough_wavelength_m=(1.5, 5.0), slope_deg=10.0,
                                        slope_axis_yaw=math.pi / 2, slope_ramp_m=(0.0, 64.0)),
-                 gyro=env05f((0.040, 0.150, -0.062)), **ch5),
+                 gyro=env05f((0.045, 0.15, -0.075)), **ch5),
         Scenario("rough_road", "R5-7..10: ≈50 m artificial rough road at 0.8 m/s, random ≈±5° roll/pitch",
-                 route=straight(50.0), terrain=TerrainParams(rough_deg=5.0, rough_wavelength_m=(2.5, 6.0)),
-                 gyro=env05f((0.126, 0.178, -0.21)), **ch5),
-        Scenario("sleeper_tilt", "R4-6: manual straight, left wheels over a 15 cm sleeper (roll ≈6°), RT-2 4 Hz, "
+                 route=straight(50.0), terrain=TerrainParams(rough_rms_deg=3.0, rough_wavelength_m=(1.5, 4.0)),
+                 gyro=env05f((0.126, 0.178, -0.25)), **ch5),
+        Scenario("sleeper_tilt", "R4-6: manual straight, left wheels climb onto a row of 15 cm sleepers after 2 m (roll ≈6°), RT-2 4 Hz, "
                  "antenna (a, b, h) = (0, 0, 1.751) m, JCS-7401A attitude",
                  route=straight(30.0), driver=DriverParams(speed_mps=0.5, accel_mps2=0.3), vehicle=SMALL_TRACTOR,
-                 terrain=TerrainParams(rough_deg=0.3, sleeper=((-0.7, 15.0), 0.5, 1.0, 0.15, math.pi / 2)),
+                 terrain=TerrainParams(rough_rms_deg=0.2,
+                                       sleeper=((-0.7, 17.0), 30.0, 1.0, 0.15, math.pi / 2, 0.4)),
                  gyro=fog(0.005), accel=SERVO_ACCEL, incl=JCS_TILT, gnss=RT2,
                  mounts=mounts(imu=(0.0, 0.0, 1.0), gnss=(0.0, 0.0, 1.751)), datum=SAPPORO),
         Scenario("rtk_straight_fast", "R4-7/8: Case MX240, ≈3 m manual start + 150 m at 4.3 m/s on a tilled field "
                  "(roll range ≈4°), RTK 7400MSi 5 Hz, antenna (0, -1.67, 3.23) m, FOG IMU",
                  route=straight(170.0), driver=DriverParams(speed_mps=4.3, accel_mps2=1.0, start_standstill_s=5.0),
-                 vehicle=MX240, terrain=TerrainParams(rough_deg=2.0, rough_wavelength_m=(4.0, 15.0)),
+                 vehicle=MX240, terrain=TerrainParams(rough_rms_deg=1.0, rough_wavelength_m=(4.0, 15.0)),
                  gyro=fog(0.0056), accel=SERVO_ACCEL, incl=JCS_TILT, gnss=MS7400,
                  mounts=mounts(imu=(0.5, 0.4, 1.5), gnss=(-1.67, 0.0, 3.23)), datum=SAPPORO),
         Scenario("gds_straight_slow", "R2-19..24: GL320, 5 m manual + 35 m at 0.5 m/s on a tilled field, "
                  "FGM-200A GDS and JCS-7401A FOG IMU at 15 Hz",
                  route=straight(40.0), driver=DriverParams(speed_mps=0.5, accel_mps2=0.3), vehicle=GL320,
-                 terrain=TerrainParams(rough_deg=1.0, rough_wavelength_m=(2.0, 8.0)), imu_rate_hz=15.0,
+                 terrain=TerrainParams(rough_rms_deg=0.4, rough_wavelength_m=(2.0, 8.0)), imu_rate_hz=15.0,
                  gyro=fog(0.005), accel=SERVO_ACCEL, incl=JCS_TILT, mag=FluxgateParams(),
                  magnetic=DisturbanceParams(base_deg=0.5, peak_deg=0.5),
                  mounts=mounts(imu=(-0.3, 0.0, 1.0), mag=(0.3, 0.0, 1.9)), datum=SAPPORO),
         Scenario("vwa_straight", "R2-9..13: ≈400 s manual straight at 0.5 m/s, FGM-300A GDS + JCS-7401A FOG "
                  "(2°/min spec) at 15 Hz, concrete perimeter disturbing the field after ≈125 m",
                  route=straight(190.0), driver=DriverParams(speed_mps=0.5, accel_mps2=0.3, weave_deg=0.5),
-                 vehicle=GL320, terrain=TerrainParams(rough_deg=0.7, rough_wavelength_m=(2.0, 8.0)),
+                 vehicle=GL320, terrain=TerrainParams(rough_rms_deg=0.3, rough_wavelength_m=(2.0, 8.0)),
                  imu_rate_hz=15.0, gyro=fog(0.004), accel=SERVO_ACCEL, incl=JCS_TILT, mag=FluxgateParams(),
-                 magnetic=DisturbanceParams(base_deg=0.25, peak_deg=1.2, ramp_m=(110.0, 150.0)),
+                 magnetic=DisturbanceParams(base_deg=0.15, peak_deg=0.5, ramp_m=(110.0, 150.0)),
                  mounts=mounts(imu=(-0.3, 0.0, 1.0), mag=(0.3, 0.0, 1.9)), datum=SAPPORO),
         Scenario("gps_gyro_straight", "R4-1..4: ≈0.5 m/s straight, AgGPS132 beacon DGPS 1 Hz, ENV-05F-52 at 100 Hz",
                  route=straight(60.0), driver=DriverParams(speed_mps=0.5, accel_mps2=0.3, weave_deg=0.3),
-                 vehicle=SMALL_TRACTOR, terrain=TerrainParams(rough_deg=0.5, rough_wavelength_m=(2.0, 8.0)),
-                 gyro=env05f((0.0, 0.0, 0.03)), incl=None, gnss=AGGPS132, datum=SAPPORO),
+                 vehicle=SMALL_TRACTOR, terrain=TerrainParams(rough_rms_deg=0.3, rough_wavelength_m=(2.0, 8.0)),
+                 gyro=env05f((0.0, 0.0, 0.036)), incl=None, gnss=AGGPS132, datum=SAPPORO),
     ]
 
 

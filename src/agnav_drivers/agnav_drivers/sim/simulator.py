@@ -4,7 +4,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from agnav_common.frames import rotation_matrix, wrap_angle
+from agnav_common.frames import rotation_matrix
 from agnav_common.geodesy import LocalTangentPlane
 
 from .route import RouteDriver
@@ -109,7 +109,7 @@ class TractorSimulator:
         else:
             p = self._prev
             rates = [(roll - p["roll"]) / self.dt, (pitch - p["pitch"]) / self.dt,
-                     wrap_angle(st.yaw - p["yaw"]) / self.dt]
+                     math.remainder(st.yaw - p["yaw"], 2 * math.pi) / self.dt]
             w = euler_rates_to_body(0.5 * (roll + p["roll"]), 0.5 * (pitch + p["pitch"]), *rates)
             vz = (z - p["z"]) / self.dt
         return dict(t=self.t, x=st.x, y=st.y, z=z, roll=roll, pitch=pitch, yaw=st.yaw,
@@ -119,7 +119,8 @@ class TractorSimulator:
     def _sensor_motion(self, mount, rot, vel, w):
         """(ENU position, ENU velocity, specific force in the sensor frame) of a mounted sensor."""
         pos_arm = rot @ mount.r
-        v = vel + rot @ np.cross(w, mount.r)
+        r = mount.r
+        v = vel + rot @ np.array([w[1] * r[2] - w[2] * r[1], w[2] * r[0] - w[0] * r[2], w[0] * r[1] - w[1] * r[0]])
         acc = np.zeros(3) if mount.prev_vel is None else (v - mount.prev_vel) / self.dt
         mount.prev_vel = v
         f_body = rot.T @ (acc + np.array([0.0, 0.0, GRAVITY]))

@@ -9,12 +9,13 @@ import numpy as np
 class TerrainParams:
     """Sum of: random undulations (sum of sines), a cross slope ramping along an axis, and a sleeper bump.
 
-    rough_deg: peak slope of the random undulations (≈ the ± roll/pitch they cause);
-    rough_wavelength_m: (min, max) wavelengths; slope_deg reached at slope_ramp_m[1] along slope_axis_yaw,
-    falling to the right of that axis; sleeper: (x, y) centre, length (m, along its yaw), width, height, yaw.
+    rough_rms_deg: r.m.s. slope of the random undulations along any direction (≈ r.m.s. roll and pitch they
+    cause for wavelengths longer than the wheel base); rough_wavelength_m: (min, max) wavelengths;
+    slope_deg reached at slope_ramp_m[1] along slope_axis_yaw, falling to the right of that axis;
+    sleeper: raised strip ((x, y) centre, length along its yaw, width, height, yaw, end-ramp length), all m/rad.
     """
 
-    rough_deg: float = 0.0
+    rough_rms_deg: float = 0.0
     rough_wavelength_m: tuple = (2.0, 6.0)
     rough_components: int = 24
     slope_deg: float = 0.0
@@ -34,9 +35,8 @@ class Terrain:
         k = 2 * math.pi / lam
         self._k = np.stack([k * np.cos(direction), k * np.sin(direction)], axis=1)
         self._phase = rng.uniform(0, 2 * math.pi, n)
-        # each component's slope amplitude k*A; the sum's peak slope ≈ 2.5 sigma
-        sigma_slope = math.tan(math.radians(params.rough_deg)) / 2.5
-        self._amp = sigma_slope * math.sqrt(2.0 / n) / k
+        # component slope amplitude k·A; directional slope variance = n (kA)^2 / 4 for random directions
+        self._amp = math.tan(math.radians(params.rough_rms_deg)) * math.sqrt(4.0 / n) / k
 
     def height(self, xy):
         """Heights (m) at points xy (..., 2)."""
@@ -50,12 +50,12 @@ class Terrain:
             frac = np.clip((xy @ ax - a0) / (a1 - a0), 0.0, 1.0)
             h = h - math.tan(math.radians(p.slope_deg)) * frac * (xy @ right)
         if p.sleeper is not None:
-            (cx, cy), length, width, height, yaw = p.sleeper
+            (cx, cy), length, width, height, yaw, ramp = p.sleeper
             d = xy - np.array([cx, cy])
             u = d @ np.array([math.cos(yaw), math.sin(yaw)])
             w = d @ np.array([-math.sin(yaw), math.cos(yaw)])
-            bump = np.where(np.abs(u) < length / 2, 0.5 * (1 + np.cos(2 * math.pi * u / length)), 0.0)
-            h = h + height * bump * (np.abs(w) < width / 2)
+            rise = np.clip((length / 2 - np.abs(u)) / ramp, 0.0, 1.0)
+            h = h + height * 0.5 * (1 - np.cos(math.pi * rise)) * (np.abs(w) < width / 2)
         return h
 
 

@@ -9,7 +9,8 @@ FIX_DGPS, FIX_RTK_FIXED = 2, 4
 
 @dataclass(frozen=True)
 class GnssParams:
-    """Per-axis horizontal errors (m): first-order Gauss-Markov bias (sigma, tau) + white; vertical ×vertical_ratio.
+    """Per-axis horizontal errors (m): second-order Gauss-Markov bias (sigma, tau; smooth from epoch to epoch, as
+    differential corrections drift) + white; vertical ×vertical_ratio.
     latency_s: epoch -> message arrival; vel_noise_mps: white on the ENU antenna velocity."""
 
     model: str = "StarFire SF-2050M"
@@ -33,13 +34,17 @@ class GnssReceiver:
         self.params = params
         self._rng = rng
         self._scale = np.array([1.0, 1.0, params.vertical_ratio])
+        # two cascaded first-order stages with equal tau; the second has half the first's variance
+        self._stage = params.bias_sigma_m * math.sqrt(2.0) * self._scale * rng.standard_normal(3)
         self.bias = params.bias_sigma_m * self._scale * rng.standard_normal(3)
 
     def sample(self, dt, antenna_enu, antenna_vel_enu):
         """(position ENU m, velocity ENU m/s) measured at this epoch; dt = time since the previous epoch."""
         p, rng = self.params, self._rng
         a = math.exp(-dt / p.bias_tau_s)
-        self.bias = a * self.bias + math.sqrt(1 - a * a) * p.bias_sigma_m * self._scale * rng.standard_normal(3)
+        drive = math.sqrt(2.0) * p.bias_sigma_m * self._scale
+        self._stage = a * self._stage + math.sqrt(1 - a * a) * drive * rng.standard_normal(3)
+        self.bias = a * self.bias + (1 - a) * self._stage
         pos = antenna_enu + self.bias + p.white_sigma_m * self._scale * rng.standard_normal(3)
         vel = antenna_vel_enu + p.vel_noise_mps * self._scale * rng.standard_normal(3)
         return pos, vel
