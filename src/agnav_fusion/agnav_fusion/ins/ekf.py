@@ -1,0 +1,331 @@
+"""GNSS/INS loosely coupled extended Kalman filter (SPEC §7.6, §7.9–7.11, report 5-9-1 … 5-9-8).
+
+`InsEkf` owns the mechanization, the error covariance and the guards: IMU-rate propagation
+(Euler F, Q = U dt), in-motion alignment from an unknown heading (γ/β), GNSS latency compensation
+(solution history, fixes applied against the INS state at their epoch), chi-square innovation
+gating, Joseph-form update with closed-loop correction, outage coasting and health statistics.
+"""
+import math
+from collections import deque
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.stats import chi2
+
+from . import earth, error_model as em, feedback
+from .lever_arm import antenna_to_imu_position
+from .measurements import ENU_TO_NED, GnssPosition, GnssVelocity, Snapshot, c_axes, ned_to_c
+from .mechanization import InsState, Mechanization, roll_pitch_from_accel
+
+UNINITIALIZED, ALIGNING, ALIGNED = "uninitialized", "aligning", "aligned"
+
+
+@dataclass
+class InsEkfSettings:
+    """Filter parameters ([IMPL] values for a consumer MEMS IMU; SPEC gives none for §7)."""
+
+    error: em.ErrorModelSettings = field(default_factory=em.ErrorModelSettings)
+    lever_gnss_frd: tuple = (0.0, 0.0, 0.0)    # IMU -> antenna in body FRD [m]
+    initial_heading: float = 0.0               # best guess, clockwise from north [rad]
+    initial_heading_sigma: float = math.inf    # inf: unknown heading (γ/β span the full circle)
+    tilt_sigma: float = math.radians(2.0)      # roll/pitch from accelerometers while driving
+    velocity_sigma: float = 0.1                # initial velocity (side-slip, speed noise) [m/s]
+    accel_bias_sigma0: float = 0.1             # [m/s^2]
+    gyro_bias_sigma0: float = math.radians(0.2)  # [rad/s]
+    level_window: float = 1.0                  # accelerometer averaging for roll/pitch [s]
+    align_speed: float = 0.5                   # moving: initial velocity along the body x axis [m/s]
+    aligned_heading_sigma: float = math.radians(1.0)
+    gate_probability: float = 0.9999           # chi-square innovation gate
+    reinit_after: float = 10.0                 # reinitialise after this long of rejected GNSS [s]
+    history: float = 2.0                       # latency compensation window [s]
+    max_imu_gap: float = 0.1                   # larger IMU gaps are not integrated [s]
+
+
+@dataclass
+class NavSolution:
+    """IMU-point solution: NED velocity, heading clockwise from north, FRD rates, ENU covariances."""
+
+    t: float
+    lat: float
+    lon: float
+    h: float
+    v_ned: np.ndarray
+    roll: float
+    pitch: float
+    heading: float
+    omega_b: np.ndarray
+    c_b_ned: np.ndarray
+    pos_cov_enu: np.ndarray
+    vel_cov_enu: np.ndarray
+    att_var: np.ndarray          # roll, pitch, heading [rad^2]
+
+
+class InsEkf:
+    """Strapdown INS + 16-state error EKF; feed `add_imu` and `add_gnss` in arrival order."""
+
+    def __init__(self, settings=None):
+        self.s = settings or InsEkfSettings()
+        self.mech = None
+        self.p = None
+        self.psd = self.s.error.psd()
+        self.models = [GnssPosition(self.s.lever_gnss_frd), GnssVelocity(self.s.lever_gnss_frd)]
+        self.t = None
+        self.omega_b = np.zeros(3)
+        self._level = deque()
+        self._history = deque()
+        self._pending = []
+        self._gates = {}
+        self._corr = np.zeros(6)          # accumulated corrections (lat, lon, h, v_ned)
+        self._last_gnss_t = None
+        self._last_accept_t = None
+        self._first_reject_t = None
+        self.stats = {"imu": 0, "gnss": 0, "accepted": {}, "rejected": {}, "nis": {}}
+
+    # ----------------------------------------------------------------- public API
+    @property
+    def n_states(self):
+        return self.p.shape[0] if self.p is not None else em.N_STATES
+
+    @property
+    def alignment(self):
+        if self.mech is None:
+            return UNINITIALIZED
+        return ALIGNED if self.heading_sigma() < self.s.aligned_heading_sigma else ALIGNING
+
+    def heading_sigma(self):
+        """1-sigma heading uncertainty [rad] (γ ≈ δα once small)."""
+        return math.sqrt(max(self.p[em.GAMMA, em.GAMMA], 0.0)) if self.p is not None else math.inf
+
+    def add_imu(self, t, gyro_frd, accel_frd):
+        """One IMU sample (body FRD, rad/s and m/s^2) stamped at t [s]; returns a rejection reason or None."""
+        gyro, accel = np.asarray(gyro_frd, dtype=float), np.asarray(accel_frd, dtype=float)
+        if not (math.isfinite(t) and np.all(np.isfinite(gyro)) and np.all(np.isfinite(accel))):
+            return self._reject("imu_nan")
+        if self.t is not None and t <= self.t:
+            return self._reject("imu_stamp")
+        dt = None if self.t is None else t - self.t
+        self.t = t
+        self.stats["imu"] += 1
+        self._level.append((t, accel))
+        while self._level[0][0] < t - self.s.level_window:
+            self._level.popleft()
+        if self.mech is None:
+            self._process_pending()
+            return None
+        if dt > self.s.max_imu_gap:
+            return self._reject("imu_gap")
+        self._propagate(gyro, accel, dt)
+        self._process_pending()
+        return None
+
+    def add_gnss(self, g):
+        """One GNSS epoch (may arrive after later IMU samples); returns a rejection reason or None."""
+        vals = [g.t, g.lat, g.lon, g.alt] + list(np.ravel(g.pos_cov_enu))
+        if not all(math.isfinite(v) for v in vals) or np.any(np.diag(g.pos_cov_enu) <= 0):
+            return self._reject("gnss_nan")
+        if self._last_gnss_t is not None and g.t <= self._last_gnss_t:
+            return self._reject("gnss_stamp")
+        if g.vel_enu is not None and not (np.all(np.isfinite(g.vel_enu)) and np.all(np.isfinite(g.vel_cov_enu))):
+            g.vel_enu = None
+        self._last_gnss_t = g.t
+        self.stats["gnss"] += 1
+        self._pending.append(g)
+        self._process_pending()
+        return None
+
+    def solution(self):
+        """Current IMU-point NavSolution, or None before initialisation."""
+        if self.mech is None:
+            return None
+        st = self.mech.state
+        roll, pitch, heading = st.euler()
+        rm, rn = earth.radii(st.lat)
+        a = c_axes(st.alpha) * (earth.mean_radius(st.lat) + st.h)
+        pos = np.zeros((3, 3))
+        pos[:2, :2] = a @ self.p[:2, :2] @ a.T
+        pos[2, 2] = self.p[em.H, em.H]
+        m = ENU_TO_NED.T @ ned_to_c(st.alpha).T       # C -> ENU
+        iv = list(em.V3)
+        tilt = 0.5 * (self.p[em.TX, em.TX] + self.p[em.TY, em.TY])
+        return NavSolution(self.t, st.lat, st.lon, st.h, st.v_ned(), roll, pitch, heading, self.omega_b.copy(),
+                           st.c_b_ned(), pos, m @ self.p[np.ix_(iv, iv)] @ m.T,
+                           np.array([tilt, tilt, self.p[em.GAMMA, em.GAMMA]]))
+
+    def augment(self, p_new, p_cross=None):
+        """Append error states (e.g. ambiguities, clock drift for tight coupling, §7.9) with their covariance."""
+        k = p_new.shape[0]
+        n = self.n_states
+        p = np.zeros((n + k, n + k))
+        p[:n, :n], p[n:, n:] = self.p, p_new
+        if p_cross is not None:
+            p[n:, :n], p[:n, n:] = p_cross, p_cross.T
+        self.p = p
+        self.psd = np.concatenate([self.psd, np.zeros(k)])
+
+    def health(self):
+        """Filter health for diagnostics: alignment, NIS means, counts, GNSS age, 1-sigma errors."""
+        out = {"alignment": self.alignment, "imu_samples": self.stats["imu"], "gnss_epochs": self.stats["gnss"]}
+        for name, (n, total) in self.stats["nis"].items():
+            out[f"nis_mean_{name}"] = total / n
+        for kind in ("accepted", "rejected"):
+            for name, count in self.stats[kind].items():
+                out[f"{kind}_{name}"] = count
+        if self.p is not None:
+            out["heading_sigma_deg"] = math.degrees(self.heading_sigma())
+            out["gnss_age_s"] = (self.t - self._last_accept_t) if self._last_accept_t is not None else math.inf
+        return out
+
+    # ----------------------------------------------------------------- internals
+    def _gate(self, dof):
+        if dof not in self._gates:
+            self._gates[dof] = float(chi2.ppf(self.s.gate_probability, dof))
+        return self._gates[dof]
+
+    def _reject(self, reason):
+        self.stats["rejected"][reason] = self.stats["rejected"].get(reason, 0) + 1
+        return reason
+
+    def _initialize(self, g, heading, heading_var):
+        """Level from the accelerometers, position/velocity from the fix, heading from the guess."""
+        if len(self._level) < 2:
+            return False
+        v_ned = np.zeros(3)
+        if g.vel_enu is not None:
+            v = ENU_TO_NED @ np.asarray(g.vel_enu)
+            speed = math.hypot(v[0], v[1])
+            if speed > self.s.align_speed:      # travel along the (guessed) body x axis
+                v_ned = np.array([speed * math.cos(heading), speed * math.sin(heading), v[2]])
+        if heading_var >= 1.0 and not v_ned.any():
+            return False                        # unknown heading: wait until driving (in-motion alignment)
+        roll, pitch = roll_pitch_from_accel(np.mean([a for _, a in self._level], axis=0))
+        c_b_ned = InsState.from_geodetic(g.lat, g.lon, g.alt, roll, pitch, heading).c_b_ned()
+        lat, lon, h = antenna_to_imu_position(g.lat, g.lon, g.alt, np.asarray(self.s.lever_gnss_frd), c_b_ned)
+        self.mech = Mechanization(InsState.from_geodetic(lat, lon, h, roll, pitch, heading, v_ned))
+        self.p = np.diag(self._initial_variances(g, heading_var))
+        self._history.clear()
+        self._snapshot()
+        return True
+
+    def _initial_variances(self, g, heading_var):
+        s = self.s
+        r = earth.mean_radius(g.lat) + g.alt
+        lever = float(np.linalg.norm(s.lever_gnss_frd[:2]))
+        var = np.zeros(em.N_STATES)
+        var[[em.RX, em.RY]] = (np.trace(g.pos_cov_enu[:2, :2]) / 2 + lever ** 2) / r ** 2
+        var[em.H] = g.pos_cov_enu[2, 2] + 0.1
+        var[list(em.V3)] = s.velocity_sigma ** 2
+        var[[em.TX, em.TY]] = s.tilt_sigma ** 2
+        var[em.BA] = s.accel_bias_sigma0 ** 2
+        var[em.BG] = s.gyro_bias_sigma0 ** 2
+        if heading_var >= 1.0:      # unknown: γ, β span the whole circle
+            var[em.GAMMA], var[em.BETA] = 1.0, 2.0
+        else:
+            var[em.GAMMA], var[em.BETA] = heading_var, heading_var ** 2 / 2
+        return var
+
+    def _propagate(self, gyro, accel, dt):
+        mech = self.mech
+        rho, omega, a_c = mech.step(gyro, accel, dt)
+        st = mech.state
+        self.omega_b = gyro - mech.gyro_bias
+        c_b_c = em.body_to_c(st.c_b_cbar())
+        f = em.dynamics(self.s.error, st.v, a_c, rho, omega, c_b_c, st.lat, st.h, st.alpha)
+        phi = np.eye(self.n_states)
+        phi[:em.N_STATES, :em.N_STATES] += f * dt
+        self.p = phi @ self.p @ phi.T
+        self.p[np.diag_indices_from(self.p)] += self.psd * dt
+        if self.stats["imu"] % 1000 == 0:
+            mech.renormalize()
+        self._snapshot()
+
+    def _snapshot(self):
+        st = self.mech.state
+        self._history.append((Snapshot(self.t, st.lat, st.lon, st.h, st.v_ned(), st.c_b_ned(), self.omega_b.copy()),
+                              self._corr.copy()))
+        while self._history and self._history[0][0].t < self.t - self.s.history:
+            self._history.popleft()
+
+    def _snapshot_at(self, t):
+        """INS solution interpolated at epoch t, shifted by corrections applied since (latency compensation)."""
+        hist = self._history
+        i = len(hist) - 1
+        while i > 0 and hist[i - 1][0].t >= t:
+            i -= 1
+        (b, cb) = hist[i]
+        (a, ca) = hist[i - 1] if i > 0 else hist[i]
+        w = 0.0 if b.t == a.t else min(max((t - a.t) / (b.t - a.t), 0.0), 1.0)
+        d = self._corr - (ca + w * (cb - ca))
+        pos = (1 - w) * np.array([a.lat, a.lon, a.h]) + w * np.array([b.lat, b.lon, b.h]) + d[:3]
+        v = (1 - w) * a.v_ned + w * b.v_ned + d[3:]
+        near = b if w >= 0.5 else a
+        return Snapshot(t, pos[0], pos[1], pos[2], v, near.c_b_ned, near.omega_b)
+
+    def _process_pending(self):
+        keep = []
+        for g in self._pending:
+            if self.mech is None:
+                if not self._initialize(g, self.s.initial_heading, self.s.initial_heading_sigma ** 2):
+                    continue
+                self._last_accept_t = self.t
+            elif g.t > self.t:
+                keep.append(g)
+            elif g.t < self._history[0][0].t:
+                self._reject("gnss_stale")
+            else:
+                self._update(g)
+        self._pending = keep
+
+    def _update(self, g):
+        snap = self._snapshot_at(g.t)
+        alpha = self.mech.state.alpha
+        hv = self.p[em.GAMMA, em.GAMMA]
+        models = self.models if g.vel_enu is not None else self.models[:1]
+        accepted = []
+        for model in models:
+            lin = model.linearize(snap, alpha, g, hv, self.n_states)
+            s = lin.h @ self.p @ lin.h.T + lin.r
+            nis = float(lin.z @ np.linalg.solve(s, lin.z))
+            if nis > self._gate(len(lin.z)):
+                self._reject(lin.name)
+                continue
+            n, total = self.stats["nis"].get(lin.name, (0, 0.0))
+            self.stats["nis"][lin.name] = (n + 1, total + nis)
+            self.stats["accepted"][lin.name] = self.stats["accepted"].get(lin.name, 0) + 1
+            accepted.append(lin)
+        if not accepted:
+            self._first_reject_t = self._first_reject_t if self._first_reject_t is not None else g.t
+            if g.t - self._first_reject_t > self.s.reinit_after:
+                self._reject("reinitialized")
+                self._first_reject_t = None
+                self._initialize(g, self.mech.state.euler()[2], self.p[em.GAMMA, em.GAMMA])
+            return
+        self._first_reject_t = None
+        self._last_accept_t = self.t
+        z = np.concatenate([m.z for m in accepted])
+        h = np.vstack([m.h for m in accepted])
+        r = np.zeros((len(z), len(z)))
+        k0 = 0
+        for m in accepted:
+            r[k0:k0 + len(m.z), k0:k0 + len(m.z)] = m.r
+            k0 += len(m.z)
+        p = self.p
+        k = np.linalg.solve(h @ p @ h.T + r, h @ p).T
+        x = k @ z
+        ikh = np.eye(self.n_states) - k @ h
+        p = ikh @ p @ ikh.T + k @ r @ k.T                      # Joseph form
+        self._feedback(x, p)
+
+    def _feedback(self, x, p):
+        st = self.mech.state
+        before = np.array([st.lat, st.lon, st.h, *st.v_ned()])
+        feedback.apply(self.mech, x)
+        after = np.array([st.lat, st.lon, st.h, *st.v_ned()])
+        self._corr += after - before
+        j = feedback.azimuth_reset_jacobian(x[em.GAMMA], x[em.BETA], self.n_states)
+        p = j @ p @ j.T
+        if p[em.GAMMA, em.GAMMA] > 1.0:          # no worse than an unknown heading
+            scale = 1.0 / math.sqrt(p[em.GAMMA, em.GAMMA])
+            p[em.GAMMA, :] *= scale
+            p[:, em.GAMMA] *= scale
+        p[em.BETA, em.BETA] = 0.5 * p[em.GAMMA, em.GAMMA] ** 2 + 1e-12
+        self.p = 0.5 * (p + p.T)

@@ -1,0 +1,113 @@
+"""Pluggable EKF measurement models: loosely coupled GNSS position and velocity (SPEC §7.6).
+
+A model turns a measurement and the INS solution at its epoch into a `Linearized` observation
+z = H x + n about the closed-loop point x = 0 (so z is also the innovation). Models fill the
+columns of the 16 core states only, so the filter state may grow (ambiguities, clock drift).
+"""
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import earth, error_model as em
+from .lever_arm import antenna_to_imu_position, antenna_to_imu_velocity
+from .mechanization import T, c_cbar_ned
+
+ENU_TO_NED = np.array([[0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, -1.0]])
+
+
+@dataclass
+class GnssSample:
+    """One receiver epoch at the antenna: stamp = measurement epoch, ENU covariances."""
+
+    t: float
+    lat: float                 # rad
+    lon: float                 # rad
+    alt: float                 # m, ellipsoidal
+    pos_cov_enu: np.ndarray    # 3x3 m^2
+    vel_enu: np.ndarray = None  # m/s, or None
+    vel_cov_enu: np.ndarray = None
+    fix_type: int = 4
+
+
+@dataclass
+class Snapshot:
+    """INS solution at one IMU epoch, kept for latency compensation."""
+
+    t: float
+    lat: float
+    lon: float
+    h: float
+    v_ned: np.ndarray
+    c_b_ned: np.ndarray
+    omega_b: np.ndarray
+
+
+@dataclass
+class Linearized:
+    """z = H x + n, n ~ N(0, R); `name` keys the health statistics."""
+
+    name: str
+    z: np.ndarray
+    h: np.ndarray
+    r: np.ndarray
+
+
+def c_axes(alpha):
+    """A with [dE, dN] = A [ΔE-angle, ΔN-angle]: C-horizontal error rotation for wander angle alpha."""
+    ca, sa = math.cos(alpha), math.sin(alpha)
+    return np.array([[ca, -sa], [sa, ca]])
+
+
+def ned_to_c(alpha):
+    """v^C = T C_NED^Cbar v^NED."""
+    return T @ c_cbar_ned(alpha).T
+
+
+class GnssPosition:
+    """Position rows (5-6-4..15) with the lever arm moved to the IMU (5-5-3)."""
+
+    name = "position"
+
+    def __init__(self, lever_frd):
+        self.lever = np.asarray(lever_frd, dtype=float)
+
+    def linearize(self, snap, alpha, gnss, heading_var, n_states):
+        lat_g, lon_g, h_g = antenna_to_imu_position(gnss.lat, gnss.lon, gnss.alt, self.lever, snap.c_b_ned)
+        a = c_axes(alpha)
+        rm, rn = earth.radii(snap.lat)
+        d_lat, d_lon = snap.lat - lat_g, snap.lon - lon_g
+        r_x, r_y = a.T @ np.array([d_lon * math.cos(snap.lat), d_lat])
+        h = np.zeros((3, n_states))
+        h[0, [em.RX, em.GAMMA, em.BETA]] = 1.0, r_y, r_x
+        h[1, [em.RY, em.GAMMA, em.BETA]] = 1.0, -r_x, r_y
+        h[2, em.H] = 1.0
+        # lever-arm heading uncertainty inflates the horizontal noise (SPEC §7.5 pitfalls)
+        cov_en = gnss.pos_cov_enu[:2, :2] + heading_var * float(np.sum((snap.c_b_ned @ self.lever)[:2] ** 2)) * np.eye(2)
+        scale = np.diag([1.0 / (rn + snap.h), 1.0 / (rm + snap.h)])
+        r = np.zeros((3, 3))
+        r[:2, :2] = a.T @ scale @ cov_en @ scale @ a
+        r[2, 2] = gnss.pos_cov_enu[2, 2]
+        return Linearized(self.name, np.array([r_x, r_y, snap.h - h_g]), h, r)
+
+
+class GnssVelocity:
+    """Velocity rows (5-6-16..23) with the ω x l lever-arm term (5-5-4)."""
+
+    name = "velocity"
+
+    def __init__(self, lever_frd):
+        self.lever = np.asarray(lever_frd, dtype=float)
+
+    def linearize(self, snap, alpha, gnss, heading_var, n_states):
+        v_g = antenna_to_imu_velocity(ENU_TO_NED @ gnss.vel_enu, self.lever, snap.c_b_ned, snap.omega_b)
+        m = ned_to_c(alpha)
+        vt = m @ v_g
+        h = np.zeros((3, n_states))
+        h[0, [em.VX, em.GAMMA, em.BETA]] = 1.0, -vt[1], -vt[0]
+        h[1, [em.VY, em.GAMMA, em.BETA]] = 1.0, vt[0], -vt[1]
+        h[2, em.VZ] = 1.0
+        cov = ENU_TO_NED @ gnss.vel_cov_enu @ ENU_TO_NED.T
+        lever_v = snap.c_b_ned @ np.cross(snap.omega_b, self.lever)
+        cov[:2, :2] += heading_var * float(np.sum(lever_v[:2] ** 2)) * np.eye(2)
+        return Linearized(self.name, m @ snap.v_ned - vt, h, m @ cov @ m.T)
