@@ -23,6 +23,9 @@ setup(
         "console_scripts": [
             "bag_player = agnav_drivers.bag_player_node:main",
             "bag_recorder = agnav_drivers.bag_recorder_node:main",
+            "nmea_gnss_node = agnav_drivers.nmea_gnss_node:main",
+            "ubx_gnss_node = agnav_drivers.ubx_gnss_node:main",
+            "adc_sensor_node = agnav_drivers.adc_sensor_node:main",
         ],
     },
 )

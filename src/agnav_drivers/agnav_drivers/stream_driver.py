@@ -1,0 +1,106 @@
+"""Shared rclpy plumbing of the byte-stream drivers: link parameters, reader thread, link and
+stream diagnostics, stamps. Subclasses implement `handle_bytes(data, host_time)`."""
+from __future__ import annotations
+
+import threading
+import time
+
+from rclpy.node import Node
+
+from agnav_common.diagnostics import ERROR, OK, WARN, Diagnostics
+from agnav_common.stamps import to_stamp
+
+from .serial_link import OPEN, ByteLink, LinkSettings
+
+
+class RateMeter:
+    """Per-key rates (Hz) of monotonically growing counters between two calls."""
+
+    def __init__(self):
+        self._last: dict = {}
+        self._t = time.monotonic()
+
+    def rates(self, counts: dict) -> dict:
+        now = time.monotonic()
+        dt = max(now - self._t, 1e-6)
+        out = {k: (v - self._last.get(k, 0)) / dt for k, v in counts.items()}
+        self._last, self._t = dict(counts), now
+        return out
+
+
+class StreamDriverNode(Node):
+    """Reads a ByteLink in a thread and hands bytes with their host receive time to the subclass."""
+
+    def __init__(self, name: str, hardware: str, default_baud: int, stale_timeout: float, **kwargs):
+        super().__init__(name, **kwargs)
+        p = self.declare_parameter
+        self.link = ByteLink(LinkSettings(
+            port=p("port", "").value, baud=p("baud", default_baud).value, host=p("host", "").value,
+            tcp_port=p("tcp_port", 0).value, file=p("file", "").value, file_rate=p("file_rate", 0.0).value,
+            backoff_initial=p("backoff_initial", 0.1).value, backoff_max=p("backoff_max", 2.0).value))
+        self.stale_timeout = p("stale_timeout", stale_timeout).value
+        self.use_receiver_time = p("stamp_source", "host").value == "receiver"
+        self.last_message_time: float | None = None   # time.monotonic() of the last decoded message
+        self.published = 0
+        self._rates = RateMeter()
+        self._problems_seen = 0
+        self.diagnostics = Diagnostics(self, hardware)
+        self.diagnostics.add("link", self._link_check)
+        self._running = True
+        self._thread = threading.Thread(target=self._reader, name=f"{name}_reader", daemon=True)
+        if not (self.link.settings.port or self.link.settings.host or self.link.settings.file):
+            self.get_logger().error("no source: set one of port, host+tcp_port or file")
+        else:
+            self.get_logger().info(f"reading {self.link.settings.describe}")
+            self._thread.start()
+
+    # ---- to implement --------------------------------------------------------------------------
+    def handle_bytes(self, data: bytes, host_time: float) -> None:
+        raise NotImplementedError
+
+    # ---- helpers for subclasses ----------------------------------------------------------------
+    def stamp(self, host_time: float, receiver_time: float | None = None):
+        use = receiver_time if self.use_receiver_time and receiver_time is not None else host_time
+        return to_stamp(use)
+
+    def message_seen(self):
+        self.last_message_time = time.monotonic()
+
+    def stream_check(self, counters: dict, by_type: dict, problems: int, detail: dict):
+        """Common stream diagnostic: rates, counters, last message age, stale warning."""
+        age = None if self.last_message_time is None else time.monotonic() - self.last_message_time
+        values = {f"rate_{k}": f"{v:.2f}" for k, v in self._rates.rates(by_type).items()}
+        values.update(counters)
+        values.update(detail)
+        values["last_message_age"] = "never" if age is None else f"{age:.2f}"
+        values["published"] = self.published
+        if age is None or age > self.stale_timeout:
+            return WARN, "stale: no valid message for %s s" % ("ever" if age is None else f"{age:.1f}"), values
+        new_problems, self._problems_seen = problems - self._problems_seen, problems
+        if new_problems:
+            return WARN, f"{new_problems} new bad inputs (counted, skipped)", values
+        return OK, "streaming", values
+
+    # ---- internals -----------------------------------------------------------------------------
+    def _link_check(self):
+        status = self.link.status()
+        if self.link.state != OPEN:
+            return ERROR, f"{status['source']} {self.link.state}: {self.link.last_error}", status
+        return OK, f"{status['source']} open", status
+
+    def _reader(self):
+        while self._running:
+            data = self.link.read(0.1)
+            if data:
+                host_time = self.get_clock().now().nanoseconds * 1e-9
+                try:
+                    self.handle_bytes(data, host_time)
+                except Exception as exc:  # a driver bug must show up on /diagnostics, not kill the thread
+                    self.get_logger().error(f"driver error: {exc!r}", throttle_duration_sec=5.0)
+
+    def destroy_node(self):
+        self._running = False
+        self.link.close()
+        if self._thread.is_alive():
+            self._thread.join(timeout=2.0)
+        return super().destroy_node()
