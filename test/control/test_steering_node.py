@@ -134,3 +134,26 @@ def test_teach_and_set_line_here(harness):
     h.odom(20.0, 6.0, 1.0)
     assert h.states[-1].line_yaw == pytest.approx(0.785, abs=1e-3)
     assert h.states[-1].cross_track_error == pytest.approx(math.cos(0.785), abs=1e-3)
+
+
+def test_watchdog_probe_gets_neutral_command_each_trial():
+    from agnav_control.watchdog_probe import measure_reaction
+    reactions = measure_reaction(trials=2)
+    assert len(reactions) == 2 and all(r > 0.0 for r in reactions)
+
+
+def test_engage_when_ready_is_one_shot():
+    h = Harness(**{"line.a": [0.0, 0.0], "line.b": [100.0, 0.0], "engage_when_ready": True})
+    try:
+        h.spin(0.3)
+        h.odom(0.0, 0.1, 0.0, speed=0.0)  # too slow: not yet
+        assert not h.commands[-1].engaged
+        for k in range(5):
+            h.odom(0.04 * k, 0.1, 0.0)
+        assert h.commands[-1].engaged
+        assert h.call(SetBool, "/steering/engage", data=False).success
+        for k in range(5, 15):
+            h.odom(0.04 * k, 0.1, 0.0)
+        assert not h.commands[-1].engaged
+    finally:
+        h.close()

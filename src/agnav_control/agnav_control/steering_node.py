@@ -54,6 +54,9 @@ class SteeringNode(Node):
         self.line_frame = p("line.frame", "map")  # 'map' (x, y m) or 'latlon' (deg)
         self.line_a = list(p("line.a", [0.0, 0.0]))
         self.line_b = list(p("line.b", [0.0, 0.0]))
+        # one explicit engage request from the config, honoured once at the first healthy odometry with a line
+        # (unattended simulation runs); a later disengage is final like any other
+        self.engage_pending = p("engage_when_ready", False)
 
         self.base_line = self.line = None
         self.passes = None
@@ -75,7 +78,7 @@ class SteeringNode(Node):
         self.create_service(SetBool, "steering/teach", self._srv_teach)
         self.create_service(SetBool, "steering/engage", self._srv_engage)
         self.create_service(Trigger, "steering/next_pass", self._srv_next_pass)
-        self.create_timer(1.0 / p("watchdog.rate", 50.0), self._on_timer)
+        self.create_timer(1.0 / p("watchdog.rate", 100.0), self._on_timer)
         self.diagnostics = Diagnostics(self, "steering")
         self.diagnostics.add("autosteer", self._diagnose)
 
@@ -132,11 +135,15 @@ class SteeringNode(Node):
         elif self.base_line is None:
             response.success, response.message = False, "refused: no guidance line"
         else:
-            if self.passes is not None and self.pose is not None:
-                self.pass_index = self.passes.nearest(self.pose[1], self.pose[2])
-                self.line = self.passes.line(self.pass_index)
-            response.success, response.message = self.watchdog.request_engage(now)
+            response.success, response.message = self._engage(now)
         return response
+
+    def _engage(self, now):
+        """Explicit engage: on the pass nearest the vehicle when passes are configured."""
+        if self.passes is not None and self.pose is not None:
+            self.pass_index = self.passes.nearest(self.pose[1], self.pose[2])
+            self.line = self.passes.line(self.pass_index)
+        return self.watchdog.request_engage(now)
 
     def _srv_next_pass(self, _request, response):
         if self.passes is None or self.pose is None:
@@ -173,6 +180,8 @@ class SteeringNode(Node):
         if self.line is None:
             self._publish_command(msg.header.stamp, 0.0)
             return
+        if self.engage_pending and fault is None:
+            self.engage_pending = not self._engage(self._now())[0]
         if self.use_variable_target and self.watchdog.engaged:
             self.line = self.variable_target.update(self.line, t, sample.x, sample.y, yaw)
         err = self.line.error(sample.x, sample.y, yaw, sample.speed, self.bidirectional)

@@ -7,7 +7,7 @@ from dataclasses import dataclass
 
 @dataclass
 class WatchdogSettings:
-    stale_timeout: float = 0.2       # s without odometry -> disengage
+    stale_timeout: float = 0.15      # s without odometry -> disengage (neutral by 0.2 s with the timer)
     max_position_std: float = 0.3    # m, sqrt of the larger horizontal position variance
     max_yaw_std: float = 0.1         # rad
     min_speed: float = 0.2           # m/s
