@@ -30,8 +30,8 @@ def fog(drift_dps):
                       random_walk_dps_rt_s=1e-4, noise_dps=0.01, angle_noise_deg=0.06)
 
 
-# Omron D5R-L02-15, SPEC §11.6: τ ≈ 1.1 s, ±15°, zero ±0.5° (levelled at install to ±0.3°), scale ±3 %.
-D5R = InclParams(tau_s=1.1, offset_deg=0.4, scale_error=0.03, cross_axis=0.01, noise_deg=0.15, range_deg=15.0)
+# Omron D5R-L02-15, SPEC §11.6: τ = 1.05 s (90 % step ≤ 2.5 s), ±15°, zero ±0.5° (levelled at install to ±0.3°), scale ±3 %.
+D5R = InclParams(tau_s=1.05, offset_deg=0.4, scale_error=0.03, cross_axis=0.01, noise_deg=0.15, range_deg=15.0)
 # JCS-7401A roll/pitch outputs used as the tilt source in Ch. II/IV: reference quality, not fooled by acceleration.
 JCS_TILT = InclParams(tau_s=0.0, offset_deg=0.05, scale_error=0.01, cross_axis=0.0, noise_deg=0.05,
                       range_deg=90.0, accel_sensitivity=0.0)
