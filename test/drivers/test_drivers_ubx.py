@@ -1,5 +1,4 @@
 """UBX core on real u-blox captures: NAV-PVAT/ATT at 1 Hz, RXM-RAWX, RTK mapping, bad frames."""
-import math
 
 import numpy as np
 import pytest
