@@ -14,14 +14,18 @@ nodes:
 ```
 """
 import os
+import sys
 from dataclasses import dataclass, field
 from importlib.metadata import entry_points
 from pathlib import Path
 
 import yaml
 
-CONFIG_DIR = Path(__file__).resolve().parents[1] / "config"
-REPO_ROOT = Path(__file__).resolve().parents[3]
+REPO_ROOT = Path(__file__).resolve().parents[3]  # the source checkout (editable install)
+# Bundled configs: the source tree, then the install prefixes (colcon / ament layout).
+CONFIG_DIRS = [Path(__file__).resolve().parents[1] / "config"] + [
+    Path(p) / "share" / "agnav_bringup" / "config"
+    for p in [sys.prefix] + os.environ.get("AMENT_PREFIX_PATH", "").split(os.pathsep) if p]
 
 
 @dataclass
@@ -62,18 +66,19 @@ class GraphConfig:
         if not self.bag:
             return None
         p = Path(os.path.expanduser(self.bag))
-        return p if p.is_absolute() else REPO_ROOT / p
+        return p if p.is_absolute() or p.exists() else REPO_ROOT / p
 
 
 def available_configs():
-    return sorted(p.stem for p in CONFIG_DIR.glob("*.yaml"))
+    return sorted({p.stem for d in CONFIG_DIRS for p in d.glob("*.yaml")})
 
 
 def load_config(name_or_path):
     """A bundled config by name (nsm, gds, ins, steer, replay, ...) or a YAML file path."""
     path = Path(name_or_path)
     if not path.suffix:
-        path = CONFIG_DIR / f"{name_or_path}.yaml"
+        path = next((d / f"{name_or_path}.yaml" for d in CONFIG_DIRS if (d / f"{name_or_path}.yaml").is_file()),
+                     path)
     if not path.is_file():
         raise FileNotFoundError(f"config '{name_or_path}' not found; bundled: {', '.join(available_configs())}")
     raw = yaml.safe_load(path.read_text()) or {}

@@ -55,10 +55,6 @@ class BagSource:
         """{topic: msgtype} of the selected connections."""
         return {c.topic: c.msgtype for c in self.connections}
 
-    def definitions(self):
-        """{msgtype: (format, text)} as stored in the bag, for types the environment does not have."""
-        return {c.msgtype: (c.msgdef.format, c.msgdef.data) for c in self.connections if c.msgdef}
-
     def __iter__(self):
         for conn, stamp_ns, raw in self._reader.messages(connections=self.connections, start=self.start_ns):
             data = raw if self._reader.is2 else self._reader.typestore.serialize_cdr(
