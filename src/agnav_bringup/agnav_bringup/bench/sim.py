@@ -45,7 +45,7 @@ def sensor_rows(seed):
     g = Gyro(replace(p, noise_dps=0.0), rng)
     drift = np.array([g.sample(k, 1.0, np.zeros(3), False) for k in range(86400)])
     sd = float(np.mean((drift - drift[0]).std(axis=0)) * DEG)
-    _row(rows, "vibratory gyro 24 h SD of output change", sd, "0.1 (R3-4)", "deg/s", 0.03 < sd < 0.3)
+    _row(rows, "vibratory gyro 24 h SD of output change", sd, "0.1 (R3-4)", "deg/s", 0.05 < sd < 0.2)
     f = fog(0.005)
     g = Gyro(f, rng)
     rates = np.array([g.sample(k * 0.01, 0.01, np.zeros(3), True) for k in range(20000)])

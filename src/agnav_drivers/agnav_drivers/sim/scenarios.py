@@ -126,7 +126,7 @@ def _build():
         Scenario("gps_gyro_straight", "R4-1..4: ≈0.5 m/s straight, AgGPS132 beacon DGPS 1 Hz, ENV-05F-52 at 100 Hz",
                  route=straight(60.0), driver=DriverParams(speed_mps=0.5, accel_mps2=0.3, weave_deg=0.3),
                  vehicle=SMALL_TRACTOR, terrain=TerrainParams(rough_rms_deg=0.3, rough_wavelength_m=(2.0, 8.0)),
-                 gyro=env05f((0.0, 0.0, 0.036)), incl=None, gnss=AGGPS132, datum=SAPPORO),
+                 gyro=env05f((0.0, 0.0, 0.028)), incl=None, gnss=AGGPS132, datum=SAPPORO),
     ]
 
 

@@ -26,7 +26,7 @@ class GyroParams:
     motion_tau_s: float = 5.0
     warmup_dps: float = 0.0
     warmup_tau_s: float = 900.0
-    random_walk_dps_rt_s: float = 3.4e-4
+    random_walk_dps_rt_s: float = 6e-4
     noise_dps: float = 0.25
     angle_noise_deg: float = 0.0
 
