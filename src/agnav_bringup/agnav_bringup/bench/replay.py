@@ -1,4 +1,4 @@
-"""`agnav bench replay`: graph replay throughput and /imu/data_raw hop latency at 200 Hz.
+"""`agnav bench replay`: graph replay throughput, /imu/data_raw hop latency at 200 Hz, install/test times.
 
 Latency is publish-to-callback time of sensor_msgs/Imu at 200 Hz (stamp = wall time at publish):
 agnav nodes on one EventsExecutor in one process, agnav nodes in two processes (`--processes`
@@ -21,12 +21,13 @@ from rclpy.executors import SingleThreadedExecutor  # noqa: E402
 from rclpy.experimental import EventsExecutor  # noqa: E402
 from sensor_msgs.msg import Imu  # noqa: E402
 
-from agnav_bringup.graph_config import load_config  # noqa: E402
+from agnav_bringup.graph_config import REPO_ROOT, load_config  # noqa: E402
 from agnav_common.qos import SENSOR_QOS  # noqa: E402
 from agnav_common.stamps import to_sec, to_stamp  # noqa: E402
 from agnav_drivers.bag_source import BagSource  # noqa: E402
 
 RATE_HZ = 200.0
+DOC = REPO_ROOT / "docs" / "benchmarks" / "foundation.md"
 
 
 def source_node(count):
@@ -124,11 +125,41 @@ def replay_throughput(config):
             "messages_per_s": round(count / wall), "x_real_time": round(duration / wall, 1)}
 
 
+def install_and_test_times():
+    """Fresh clone of HEAD: wall time of `make setup` (new venv) and of `make test` after it."""
+    with tempfile.TemporaryDirectory() as tmp:
+        clone = Path(tmp) / "main"
+        subprocess.run(["git", "clone", "-q", str(REPO_ROOT), str(clone)], check=True)
+        (Path(tmp) / "shared").symlink_to((REPO_ROOT.parent / "shared").resolve())
+        times = {}
+        for target in ("setup", "test"):
+            start = time.monotonic()
+            subprocess.run(["make", target], cwd=clone, check=True, capture_output=True)
+            times[f"make_{target}_s"] = round(time.monotonic() - start, 1)
+        return times
+
+
+def table(results):
+    r = results["replay"]
+    lines = [f"replay {r['config']}: {r['bag_messages']} msgs, {r['bag_seconds']} s of bag in {r['wall_s']} s wall "
+             f"(incl. start-up): {r['messages_per_s']} msg/s, {r['x_real_time']}x real time", "",
+             "| /imu/data_raw hop at 200 Hz | p50 ms | p99 ms | n |", "|---|---|---|---|"]
+    for key in ("latency_single_process", "latency_processes", "latency_bare_rclpy"):
+        v = results[key]
+        lines.append(f"| {key.removeprefix('latency_')} | {v['p50_ms']:.3f} | {v['p99_ms']:.3f} | {v['n']} |")
+    if "install" in results:
+        lines += ["", "| fresh clone | seconds |", "|---|---|"] + [
+            f"| {k.removesuffix('_s').replace('_', ' ')} | {v} |" for k, v in results["install"].items()]
+    return "\n".join(lines)
+
+
 def main(argv):
     ap = argparse.ArgumentParser(prog="agnav bench replay", description=__doc__.splitlines()[0])
     ap.add_argument("--json", action="store_true")
     ap.add_argument("--config", default="nsm", help="graph replayed for throughput (default nsm)")
     ap.add_argument("--samples", type=int, default=2000, help="latency samples per variant (200 Hz)")
+    ap.add_argument("--install", action="store_true", help="also time make setup + make test on a fresh clone")
+    ap.add_argument("--write-docs", action="store_true", help=f"write the table to {DOC}")
     ap.add_argument("--sink", nargs=2, metavar=("COUNT", "OUT"), help=argparse.SUPPRESS)
     ap.add_argument("--bare", action="store_true", help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
@@ -139,13 +170,14 @@ def main(argv):
                "latency_single_process": percentiles_ms(latency_single_process(args.samples)),
                "latency_processes": percentiles_ms(latency_two_processes(args.samples, bare=False)),
                "latency_bare_rclpy": percentiles_ms(latency_two_processes(args.samples, bare=True))}
-    r = results["replay"]
-    print(f"replay {r['config']}: {r['bag_messages']} msgs, {r['bag_seconds']} s of bag in {r['wall_s']} s wall "
-          f"(incl. start-up): {r['messages_per_s']} msg/s, {r['x_real_time']}x real time")
-    print(f"{'/imu/data_raw hop at 200 Hz':32s} {'p50 ms':>8s} {'p99 ms':>8s} {'n':>6s}")
-    for key in ("latency_single_process", "latency_processes", "latency_bare_rclpy"):
-        v = results[key]
-        print(f"{key.removeprefix('latency_'):32s} {v['p50_ms']:8.3f} {v['p99_ms']:8.3f} {v['n']:6d}")
+    if args.install:
+        results["install"] = install_and_test_times()
+    text = table(results)
+    print(text)
+    if args.write_docs:
+        DOC.parent.mkdir(parents=True, exist_ok=True)
+        DOC.write_text("# Foundation benchmark\n\nReproduce: `agnav bench replay --install --json --write-docs` "
+                       "(2-core machine).\n\n" + text + "\n")
     if args.json:
         print(json.dumps(results))
     return 0
