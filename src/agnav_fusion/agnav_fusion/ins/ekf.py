@@ -15,7 +15,7 @@ from scipy.stats import chi2
 from . import earth, error_model as em, feedback
 from .lever_arm import antenna_to_imu_position
 from .measurements import ENU_TO_NED, GnssPosition, GnssVelocity, Snapshot, c_axes, ned_to_c
-from .mechanization import InsState, Mechanization, roll_pitch_from_accel
+from .mechanization import T, InsState, Mechanization, c_cbar_ned, roll_pitch_from_accel
 
 UNINITIALIZED, ALIGNING, ALIGNED = "uninitialized", "aligning", "aligned"
 
@@ -39,6 +39,8 @@ class InsEkfSettings:
     reinit_after: float = 10.0                 # reinitialise after this long of rejected GNSS [s]
     history: float = 2.0                       # latency compensation window [s]
     max_imu_gap: float = 0.1                   # larger IMU gaps are not integrated [s]
+    covariance_interval: float = 0.05          # P propagated at this period (Φ from the latest F) [s];
+                                               # 0 = every IMU sample; always brought current before updates
 
 
 @dataclass
@@ -71,6 +73,8 @@ class InsEkf:
         self.models = [GnssPosition(self.s.lever_gnss_frd), GnssVelocity(self.s.lever_gnss_frd)]
         self.t = None
         self.omega_b = np.zeros(3)
+        self._cov_dt = 0.0
+        self._f = None
         self._level = deque()
         self._history = deque()
         self._pending = []
@@ -202,6 +206,7 @@ class InsEkf:
         lat, lon, h = antenna_to_imu_position(g.lat, g.lon, g.alt, np.asarray(self.s.lever_gnss_frd), c_b_ned)
         self.mech = Mechanization(InsState.from_geodetic(lat, lon, h, roll, pitch, heading, v_ned))
         self.p = np.diag(self._initial_variances(g, heading_var))
+        self._f = None
         self._history.clear()
         self._snapshot()
         return True
@@ -225,22 +230,34 @@ class InsEkf:
 
     def _propagate(self, gyro, accel, dt):
         mech = self.mech
-        rho, omega, a_c = mech.step(gyro, accel, dt)
-        st = mech.state
+        rho, omega, a_c, c_bc = mech.step(gyro, accel, dt)
         self.omega_b = gyro - mech.gyro_bias
-        c_b_c = em.body_to_c(st.c_b_cbar())
-        f = em.dynamics(self.s.error, st.v, a_c, rho, omega, c_b_c, st.lat, st.h, st.alpha)
-        phi = np.eye(self.n_states)
-        phi[:em.N_STATES, :em.N_STATES] += f * dt
-        self.p = phi @ self.p @ phi.T
-        self.p[np.diag_indices_from(self.p)] += self.psd * dt
+        self._f = (rho, omega, a_c, c_bc)
+        self._cov_dt += dt
+        if self._cov_dt >= self.s.covariance_interval:
+            self._propagate_covariance()
         if self.stats["imu"] % 1000 == 0:
             mech.renormalize()
         self._snapshot()
 
+    def _propagate_covariance(self):
+        """P <- Φ P Φ^T + U Δt with Φ = I + F Δt (5-9-4, 5-6-2) over the accumulated interval."""
+        if self._cov_dt <= 0.0:
+            return
+        st = self.mech.state
+        rho, omega, a_c, c_bc = self._f
+        f = em.dynamics(self.s.error, st.v, a_c, rho, omega, em.body_to_c(c_bc), st.lat, st.h, st.alpha)
+        phi = np.eye(self.n_states)
+        phi[:em.N_STATES, :em.N_STATES] += f * self._cov_dt
+        self.p = phi @ self.p @ phi.T
+        self.p[np.diag_indices_from(self.p)] += self.psd * self._cov_dt
+        self._cov_dt = 0.0
+
     def _snapshot(self):
         st = self.mech.state
-        self._history.append((Snapshot(self.t, st.lat, st.lon, st.h, st.v_ned(), st.c_b_ned(), self.omega_b.copy()),
+        cn = c_cbar_ned(st.alpha)
+        c_bc = self._f[3] if self._f is not None else st.c_b_cbar()
+        self._history.append((Snapshot(self.t, st.lat, st.lon, st.h, cn @ (T @ st.v), cn @ c_bc, self.omega_b.copy()),
                               self._corr.copy()))
         while self._history and self._history[0][0].t < self.t - self.s.history:
             self._history.popleft()
@@ -276,6 +293,7 @@ class InsEkf:
         self._pending = keep
 
     def _update(self, g):
+        self._propagate_covariance()
         snap = self._snapshot_at(g.t)
         alpha = self.mech.state.alpha
         hv = self.p[em.GAMMA, em.GAMMA]

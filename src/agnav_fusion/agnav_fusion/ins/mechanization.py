@@ -20,6 +20,11 @@ def skew(v):
     return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
 
 
+def cross(a, b):
+    """a x b for 3-vectors (faster than np.cross for single vectors)."""
+    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
+
+
 def rotation(phi):
     """exp([phi x]) (Rodrigues)."""
     a = math.sqrt(phi[0] ** 2 + phi[1] ** 2 + phi[2] ** 2)
@@ -116,7 +121,8 @@ class Mechanization:
     gyro_bias: np.ndarray = field(default_factory=lambda: np.zeros(3))
 
     def step(self, gyro_frd, accel_frd, dt):
-        """Advance by dt with rate [rad/s] and specific force [m/s^2] in B (FRD)."""
+        """Advance by dt with rate [rad/s] and specific force [m/s^2] in B (FRD); returns the transport
+        rate, earth rate, specific force in C and C_B^Cbar used by the error model."""
         s = self.state
         lat, alpha = s.lat, s.alpha
         rho = earth.transport_rate(s.v, lat, s.h, alpha)
@@ -126,15 +132,16 @@ class Mechanization:
         theta_b = c_bc.T @ (T @ ((rho + omega) * dt))
         s.q = quaternion.rotate_increment(s.q, (np.asarray(gyro_frd) - self.gyro_bias) * dt - theta_b)
         # steps 6-7: specific force into C, velocity with Coriolis and gravity (5-3-14, 5-3-15)
-        a_c = T @ (quaternion.to_dcm(s.q) @ (np.asarray(accel_frd) - self.accel_bias))
+        c_bc = quaternion.to_dcm(s.q)
+        a_c = T @ (c_bc @ (np.asarray(accel_frd) - self.accel_bias))
         v_old = s.v
-        s.v = v_old + (a_c - np.cross(rho + 2.0 * omega, v_old) + earth.gravity_c(lat, s.h, alpha)) * dt
+        s.v = v_old + (a_c - cross(rho + 2.0 * omega, v_old) + earth.gravity_c(lat, s.h, alpha)) * dt
         # steps 8-9: transport rate at mid-interval velocity, C_E^C and height (5-3-16..22)
         v_mid = 0.5 * (v_old + s.v)
         rho_mid = earth.transport_rate(v_mid, lat, s.h, alpha)
         s.c_ec = rotation(-rho_mid * dt) @ s.c_ec
         s.h += v_mid[2] * dt
-        return rho_mid, omega, a_c
+        return rho_mid, omega, a_c, c_bc
 
     def renormalize(self):
         """Re-orthonormalise C_E^C ([IMPL] of step 9)."""

@@ -177,3 +177,61 @@ def gnss_samples(traj, gyro_true, lever_frd, grade, rng):
                     GnssSample(traj.t[k], lat, lon, alt, np.diag([var_h, var_h, grade.sigma_v ** 2]),
                                ENU_TO_NED.T @ v_ned, np.eye(3) * grade.vel_sigma ** 2, grade.fix_type)))
     return out
+
+
+@dataclass
+class RunErrors:
+    """Per-IMU-sample errors of the IMU-point solution against the truth (after initialisation)."""
+
+    t: np.ndarray
+    pos: np.ndarray        # (N, 3) north, east, down [m]
+    vel: np.ndarray        # (N, 3) NED [m/s]
+    att: np.ndarray        # (N, 3) roll, pitch, heading [rad]
+    pos_nees: np.ndarray   # 3-dof NEES of the position
+    heading_sigma: np.ndarray
+    pos_sigma: np.ndarray  # horizontal 1-sigma (sqrt of the trace) [m]
+
+
+def run_ins(ekf, traj, gyro, accel, gnss, outages=(), every=10):
+    """Feed IMU and GNSS (in arrival order, dropping epochs inside `outages` [(t0, t1)]) to ekf;
+    errors are sampled every `every` IMU samples."""
+    n = len(gyro)
+    rows = []
+    gi = 0
+    roll, pitch, heading = traj.euler()
+    for k in range(n):
+        t = traj.t[k + 1]
+        while gi < len(gnss) and gnss[gi][0] <= t:
+            sample = gnss[gi][1]
+            if not any(t0 <= sample.t < t1 for t0, t1 in outages):
+                ekf.add_gnss(sample)
+            gi += 1
+        ekf.add_imu(t, gyro[k], accel[k])
+        sol = ekf.solution() if k % every == 0 else None
+        if sol is None:
+            continue
+        rm, rn = earth.radii(sol.lat)
+        e_ned = np.array([(sol.lat - traj.lat[k + 1]) * (rm + sol.h),
+                          (sol.lon - traj.lon[k + 1]) * (rn + sol.h) * math.cos(sol.lat), traj.h[k + 1] - sol.h])
+        cov = ENU_TO_NED @ sol.pos_cov_enu @ ENU_TO_NED.T
+        att = np.array([sol.roll - roll[k + 1], sol.pitch - pitch[k + 1],
+                        math.remainder(sol.heading - heading[k + 1], 2 * math.pi)])
+        rows.append((t, e_ned, sol.v_ned - traj.v_ned[k + 1], att, float(e_ned @ np.linalg.solve(cov, e_ned)),
+                     ekf.heading_sigma(), math.sqrt(np.trace(sol.pos_cov_enu[:2, :2]))))
+    cols = list(zip(*rows))
+    return RunErrors(*(np.array(c) for c in cols))
+
+
+def field_drive(duration=240.0, speed=2.0, leg=40.0, heading0=0.3, tilt_deg=2.0):
+    """Field passes with headland U-turns (speed-ups, 180° turns) and gentle terrain roll/pitch."""
+    accel = 0.5
+    segs = [(speed / accel, accel, 0.0)]
+    total = segs[0][0]
+    turn_rate = speed / 4.0                      # 8 m headland turn diameter
+    sign = 1.0
+    while total < duration:
+        segs += [(leg / speed, 0.0, 0.0), (math.pi / turn_rate, 0.0, sign * turn_rate)]
+        total += leg / speed + math.pi / turn_rate
+        sign = -sign
+    tilt = math.radians(tilt_deg)
+    return drive(segs, heading0=heading0, tilt=lambda t: (tilt * math.sin(0.21 * t), 0.6 * tilt * math.sin(0.13 * t + 1)))

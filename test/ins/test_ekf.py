@@ -1,0 +1,81 @@
+"""GNSS/INS EKF on simulated MEMS + RTK runs: consistency, in-motion alignment, outages, jumps, guards."""
+import math
+
+import numpy as np
+import pytest
+
+from agnav_fusion.ins import synthetic as sy
+from agnav_fusion.ins.ekf import ALIGNED, InsEkf, InsEkfSettings
+
+LEVER = (-1.0, 0.0, -2.0)      # IMU -> antenna, FRD [m]
+
+
+@pytest.fixture(scope="module")
+def field():
+    """One 100 s field run with U-turns, its ideal IMU and truth (shared by the tests)."""
+    traj = sy.field_drive(duration=100.0, speed=2.0, leg=30.0, heading0=2.0)
+    return traj, sy.ideal_imu(traj)
+
+
+def _run(field, seed, heading_guess, outages=(), tamper=None):
+    traj, (gyro, accel) = field
+    rng = np.random.default_rng(seed)
+    g, a, _, _ = sy.MemsGrade().corrupt(gyro, accel, 0.01, rng)
+    gnss = sy.gnss_samples(traj, gyro, LEVER, sy.RTK_5HZ, rng)
+    if tamper:
+        tamper(gnss)
+    ekf = InsEkf(InsEkfSettings(lever_gnss_frd=LEVER, initial_heading=heading_guess))
+    return ekf, sy.run_ins(ekf, traj, g, a, gnss, outages)
+
+
+@pytest.mark.parametrize("offset_deg", [180.0, -179.0, 90.0])
+def test_alignment_converges_from_large_heading_error(field, offset_deg):
+    ekf, err = _run(field, 1, 2.0 + math.radians(offset_deg))
+    assert abs(math.degrees(err.att[0, 2])) > 80.0                 # really started far off
+    late = err.t > err.t[-1] - 20.0
+    assert np.degrees(np.abs(err.att[late, 2])).max() < 2.0
+    assert ekf.alignment == ALIGNED
+    assert np.sqrt(np.mean(np.sum(err.pos[late, :2] ** 2, axis=1))) < 0.1
+
+
+def test_position_nees_consistent(field):
+    _, err = _run(field, 2, 2.0 + 1.0)
+    settled = err.t > 30.0
+    # 3-dof NEES mean should be about 3; allow for the time-correlated samples and model approximations
+    assert 0.3 < err.pos_nees[settled].mean() < 9.0
+    heading_nees = (err.att[settled, 2] / err.heading_sigma[settled]) ** 2
+    assert heading_nees.mean() < 4.0
+
+
+def test_outage_coasts_with_growing_covariance(field):
+    ekf, err = _run(field, 3, 2.0 + 0.5, outages=[(60.0, 70.0)])
+    inside = (err.t > 60.2) & (err.t < 70.0)
+    sigma = err.pos_sigma[inside]
+    assert sigma[-1] > 5.0 * sigma[0]                               # INS-only: covariance grows
+    drift = np.linalg.norm(err.pos[inside, :2], axis=1)
+    assert drift[-1] < 5.0                                          # 10 s of MEMS coasting
+    assert drift[-1] < 4.0 * sigma[-1]
+    after = err.t > 72.0
+    assert np.linalg.norm(err.pos[after, :2], axis=1).max() < 0.2  # recovers after the outage
+    assert ekf.health()["gnss_age_s"] < 1.0
+
+
+def test_jump_is_gated(field):
+    def jump(gnss):
+        for arrival, sample in gnss:
+            if 50.0 <= sample.t < 52.0:
+                sample.lat += 20.0 / 6.37e6                        # 20 m north jump for 2 s
+    ekf, err = _run(field, 4, 2.5, tamper=jump)
+    assert ekf.stats["rejected"].get("position", 0) >= 8
+    window = (err.t > 50.0) & (err.t < 53.0)
+    assert np.linalg.norm(err.pos[window, :2], axis=1).max() < 0.3
+
+
+def test_bad_input_is_rejected():
+    ekf = InsEkf()
+    assert ekf.add_imu(1.0, [0, 0, 0], [0, 0, -9.8]) is None
+    assert ekf.add_imu(1.0, [0, 0, 0], [0, 0, -9.8]) == "imu_stamp"
+    assert ekf.add_imu(1.01, [math.nan, 0, 0], [0, 0, -9.8]) == "imu_nan"
+    bad = sy.GnssSample(1.0, math.nan, 0.0, 0.0, np.eye(3))
+    assert ekf.add_gnss(bad) == "gnss_nan"
+    assert ekf.solution() is None                                   # unknown heading, not moving yet
