@@ -15,9 +15,9 @@ from agnav_fusion import kalman
 @dataclass
 class AttitudeKFSettings:
     tau: float = 1.1                # s, inclinometer first-order time constant (D5R, SPEC §11.6)
-    gyro_noise: float = 0.0070      # rad/s/sqrt(Hz)-ish white rate noise density (ENV-05F: 0.4 deg/s rms at 100 Hz / 10 Hz bw)
-    bias_walk: float = 2.0e-4       # rad/s/sqrt(s), gyro bias random walk [IMPL]
-    incl_noise: float = 0.012       # rad, inclinometer measurement noise incl. vibration (1-sigma) [IMPL]
+    gyro_noise: float = 5.0e-4      # rad/sqrt(s) angle random walk (ENV-05F 0.25 deg/s white at 100 Hz ~ 4.4e-4)
+    bias_walk: float = 5.0e-4       # rad/s/sqrt(s), gyro bias random walk (motion-induced bias changes) [IMPL]
+    incl_noise: float = 0.02        # rad, inclinometer noise incl. coloured residuals (scale, cross-axis) [IMPL]
     init_bias_sigma: float = 0.01   # rad/s, initial gyro bias uncertainty (~0.6 deg/s)
     init_angle_sigma: float = 0.05  # rad
     gate: float = 16.0              # squared Mahalanobis gate for inclinometer samples (1 dof)

@@ -31,7 +31,11 @@ class AttitudeLSM:
         return self._lsm.drift
 
     def update(self, rate, incl, dt):
-        """One sample of gyro rate (rad/s) and inclinometer angle (rad); returns the angle estimate (rad)."""
+        """One sample of gyro rate (rad/s) and inclinometer angle (rad, or None: gyro only); returns the angle."""
+        if incl is None:
+            if self.angle is not None:
+                self.angle += (rate + self.drift) * dt
+            return self.angle
         drift = self._lsm.update(rate, incl, dt)
         self.angle = incl if self.angle is None else self.angle + (rate + drift) * dt
         self._history.append(self.angle)

@@ -21,17 +21,21 @@ def update(x, P, y, S, H, R):
     return x + K @ y, IKH @ P @ IKH.T + K @ R @ K.T
 
 
-def rts(xs_f, Ps_f, xs_p, Ps_p, Fs):
-    """RTS smoother: filtered (x_k|k, P_k|k), predicted (x_k+1|k, P_k+1|k) and F_k (x_k+1 = F_k x_k)."""
+def rts(xs_f, Ps_f, xs_p, Ps_p, Fs, angles=()):
+    """RTS smoother: filtered (x_k|k, P_k|k), predicted (x_k+1|k, P_k+1|k) and F_k (x_k+1 = F_k x_k);
+    state indices in `angles` are differenced on the circle."""
     xs, Ps = [xs_f[-1]], [Ps_f[-1]]
     for k in range(len(xs_f) - 2, -1, -1):
         C = np.linalg.solve(Ps_p[k].T, (Ps_f[k] @ Fs[k].T).T).T
-        xs.append(xs_f[k] + C @ (xs[-1] - xs_p[k]))
+        dx = xs[-1] - xs_p[k]
+        for i in angles:
+            dx[i] = np.remainder(dx[i] + np.pi, 2 * np.pi) - np.pi
+        xs.append(xs_f[k] + C @ dx)
         Ps.append(Ps_f[k] + C @ (Ps[-1] - Ps_p[k]) @ C.T)
     return np.array(xs[::-1]), np.array(Ps[::-1])
 
 
-def smooth_log(log):
+def smooth_log(log, angles=()):
     """RTS over a filter log of (F_k, x_k|k-1, P_k|k-1, x_k|k, P_k|k) entries; returns smoothed (xs, Ps)."""
     F, xp, Pp, xf, Pf = (list(v) for v in zip(*log))
-    return rts(xf, Pf, xp[1:], Pp[1:], F[1:])
+    return rts(xf, Pf, xp[1:], Pp[1:], F[1:], angles)

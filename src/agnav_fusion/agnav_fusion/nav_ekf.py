@@ -1,0 +1,96 @@
+"""Horizontal navigation EKF: yaw gyro + tilt-corrected GNSS position (and optionally GNSS velocity)
+(agnav extension of SPEC §6.3: replaces Kise/drift LSM + dead reckoning with one filter giving covariances).
+
+Thesis conventions: state x = [X east, Y north, phi heading cw from north, b yaw-gyro bias, V speed, A accel];
+X' = V sin phi, Y' = V cos phi (as 5.12-5.13), phi' = r - b (r clockwise gyro rate), V' = A, A' = -A/tau + w.
+"""
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from agnav_fusion import kalman
+
+IX, IY, IPHI, IB, IV, IA = range(6)
+
+
+@dataclass
+class NavEKFSettings:
+    rate_noise: float = 0.003      # rad/s/sqrt(Hz) heading random walk from gyro noise
+    bias_walk: float = 1.0e-4      # rad/s/sqrt(s) yaw-gyro bias random walk
+    jerk_noise: float = 0.3        # m/s^3/sqrt(Hz) longitudinal jerk
+    accel_tau: float = 2.0         # s, longitudinal acceleration is Gauss-Markov (decays to 0 without fixes)
+    slip_noise: float = 0.02       # m/sqrt(s) unmodelled position motion (slip, sway)
+    init_heading_sigma: float = 0.2
+    init_bias_sigma: float = 0.005  # rad/s
+    init_speed_sigma: float = 0.5
+
+
+class NavEKF:
+    """predict() per IMU sample, update_position()/update_velocity() per GNSS epoch; x, P public."""
+
+    def __init__(self, settings=None):
+        self.settings = settings or NavEKFSettings()
+        self.x = None
+        self.P = None
+        self.log = None  # (F, x_pred, P_pred, x_filt, P_filt) per predict+updates, for kalman.smooth_log
+
+    def initialise(self, xy, xy_cov, heading, speed=0.0):
+        s = self.settings
+        self.x = np.array([xy[0], xy[1], heading, 0.0, speed, 0.0])
+        self.P = np.zeros((6, 6))
+        self.P[:2, :2] = xy_cov
+        self.P[2:, 2:] = np.diag([s.init_heading_sigma, s.init_bias_sigma, s.init_speed_sigma, 0.5]) ** 2
+
+    def transition(self, dt):
+        """Jacobian F of one propagation step at the current state."""
+        phi, v = self.x[IPHI], self.x[IV]
+        F = np.eye(6)
+        F[IX, IPHI], F[IX, IV] = v * math.cos(phi) * dt, math.sin(phi) * dt
+        F[IY, IPHI], F[IY, IV] = -v * math.sin(phi) * dt, math.cos(phi) * dt
+        F[IPHI, IB] = -dt
+        F[IV, IA] = dt
+        F[IA, IA] = math.exp(-dt / self.settings.accel_tau)
+        return F
+
+    def predict(self, rate, dt):
+        """Propagate with the clockwise yaw rate r (rad/s) over dt (s)."""
+        s = self.settings
+        F = self.transition(dt)
+        phi, v = self.x[IPHI], self.x[IV]
+        x = self.x.copy()
+        x[IX] += v * math.sin(phi) * dt
+        x[IY] += v * math.cos(phi) * dt
+        x[IPHI] = math.remainder(phi + (rate - x[IB]) * dt, 2 * math.pi)
+        x[IV] += x[IA] * dt
+        x[IA] *= F[IA, IA]
+        Q = np.diag([s.slip_noise ** 2 * dt, s.slip_noise ** 2 * dt, s.rate_noise ** 2 * dt,
+                     s.bias_walk ** 2 * dt, 0.0, s.jerk_noise ** 2 * dt])
+        self.P = F @ self.P @ F.T + Q
+        self.x = x
+        if self.log is not None:
+            self.log.append([F, x.copy(), self.P.copy(), x.copy(), self.P.copy()])
+
+    def update(self, y, S, H, R):
+        """Apply a (gated) innovation from position_innovation / velocity_innovation."""
+        self.x, self.P = kalman.update(self.x, self.P, y, S, H, R)
+        self.x[IPHI] = math.remainder(self.x[IPHI], 2 * math.pi)
+        if self.log:
+            self.log[-1][3:] = [self.x.copy(), self.P.copy()]
+
+    def position_innovation(self, xy, R):
+        """(y, S, d2, H) of a horizontal position measurement."""
+        H = np.zeros((2, 6))
+        H[0, IX] = H[1, IY] = 1.0
+        y, S, d2 = kalman.innovation(self.x, self.P, np.asarray(xy, dtype=float), H, R)
+        return y, S, d2, H
+
+    def velocity_innovation(self, v_en, R):
+        """(y, S, d2, H) of a horizontal velocity (east, north) measurement of the reference point."""
+        phi, v = self.x[IPHI], self.x[IV]
+        h = np.array([v * math.sin(phi), v * math.cos(phi)])
+        H = np.zeros((2, 6))
+        H[0, IPHI], H[0, IV] = v * math.cos(phi), math.sin(phi)
+        H[1, IPHI], H[1, IV] = -v * math.sin(phi), math.cos(phi)
+        y, S, d2 = kalman.innovation(self.x, self.P, np.asarray(v_en, dtype=float), H, R, h=h)
+        return y, S, d2, H

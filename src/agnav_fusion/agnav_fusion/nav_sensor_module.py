@@ -1,0 +1,398 @@
+"""Navigation sensor module data flow (SPEC §6.3, Fig. 5.5): attitude -> GNSS tilt correction -> heading ->
+position at the IMU rate, with GNSS latency compensation, input guarding and covariances.
+
+The module's boundary is REP-103 (ENU map, FLU base_link, yaw CCW from east, pitch nose down); the cores
+inside run in the thesis' conventions (heading clockwise from north, pitch nose up; SPEC §2.3).
+Estimators: "thesis" = attitude LSM (5.1-5.11) + Kise/drift LSM (4.1-4.17) + dead reckoning (5.12-5.13);
+"agnav" = attitude KF (lag + acceleration model) + navigation EKF (nav_ekf.py). Both tilt-correct (4.18-4.24).
+"""
+import math
+from collections import deque
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from agnav_fusion import tilt_correction
+from agnav_fusion.attitude_kf import AttitudeKF, AttitudeKFSettings
+from agnav_fusion.attitude_lsm import AttitudeLSM, AttitudeLSMSettings
+from agnav_fusion.dead_reckoning import DeadReckoning, DeadReckoningSettings
+from agnav_fusion.gnss_heading_lsm import GnssGyroHeading, GnssGyroHeadingSettings
+from agnav_fusion.nav_ekf import IB, IPHI, IV, IA, NavEKF, NavEKFSettings
+
+GRAVITY = 9.80665
+
+
+@dataclass
+class NavSensorModuleSettings:
+    estimator: str = "agnav"                  # "agnav" or "thesis"
+    lever_flu: tuple = (0.0, 0.0, 0.0)        # m, base_link -> gnss_link translation (from TF)
+    roll_lsm: AttitudeLSMSettings = field(default_factory=lambda: AttitudeLSMSettings(window=270))
+    pitch_lsm: AttitudeLSMSettings = field(default_factory=lambda: AttitudeLSMSettings(window=200))
+    roll_kf: AttitudeKFSettings = field(default_factory=AttitudeKFSettings)
+    pitch_kf: AttitudeKFSettings = field(default_factory=AttitudeKFSettings)
+    heading: GnssGyroHeadingSettings = field(default_factory=GnssGyroHeadingSettings)
+    dead_reckoning: DeadReckoningSettings = field(default_factory=DeadReckoningSettings)
+    ekf: NavEKFSettings = field(default_factory=NavEKFSettings)
+    incl_lever_flu: tuple = (0.0, 0.0, 0.0)   # m, base_link -> inclinometer_link translation (from TF)
+    accel_compensation: bool = True           # agnav: remove the modelled kinematic acceleration from the inclinometer
+    use_gnss_velocity: bool = True            # agnav: fuse /gnss/vel (course + speed) as well
+    velocity_sigma: float = 0.05              # m/s, 1-sigma per axis of GNSS velocity
+    gate_chi2: float = 13.8                   # squared Mahalanobis gate, 2 dof 99.9 %
+    max_consecutive_rejects: int = 5          # then accept with re-initialised position (no lock-out)
+    heading_init_speed: float = 0.3           # m/s of GNSS speed before the absolute heading is initialised
+    history: float = 2.0                      # s of IMU history kept for GNSS latency
+    incl_timeout: float = 0.5                 # s, older inclinometer data is stale (gyro-only attitude)
+    gnss_timeout: float = 2.5                 # s without an accepted fix -> dead reckoning
+    max_dt: float = 0.5                       # s, longer IMU gaps are clamped and counted
+
+
+@dataclass
+class NavState:
+    """Module output at one IMU epoch (REP-103)."""
+    t: float
+    position: np.ndarray      # map ENU of base_link
+    rpy: np.ndarray           # roll, pitch, yaw
+    pose_cov: np.ndarray      # 6x6 (x, y, z, roll, pitch, yaw)
+    speed: float              # forward speed
+    rates: np.ndarray         # bias-corrected body rates (FLU)
+    twist_cov: np.ndarray     # 6x6 (vx, vy, vz, wx, wy, wz)
+    heading_valid: bool
+    position_valid: bool
+    dead_reckoning: bool
+
+
+@dataclass
+class _Sample:
+    t: float
+    dt: float
+    rate_cw: float            # yaw Euler rate, clockwise (thesis), rad/s
+    body_rates: np.ndarray
+    roll: float               # thesis roll / pitch (nose up) at this epoch
+    pitch: float
+    heading: float            # thesis heading estimate at this epoch
+    raw_heading: float        # thesis: integrated raw yaw gyro
+    nav: tuple                # agnav: (x, P) of the EKF; thesis: (xy, cov) of dead reckoning
+
+
+def _finite(*values):
+    return all(np.all(np.isfinite(np.asarray(v, dtype=float))) for v in values)
+
+
+def euler_rates(body_rates, roll, pitch):
+    """REP-103 Euler-angle rates (roll, pitch, yaw)' from FLU body rates (p, q, r)."""
+    p, q, r = body_rates
+    sr, cr = math.sin(roll), math.cos(roll)
+    cp = max(math.cos(pitch), 1e-3)
+    return (p + (q * sr + r * cr) * math.tan(pitch), q * cr - r * sr, (q * sr + r * cr) / cp)
+
+
+class NavSensorModule:
+    """Feed imu() at the IMU rate, inclinometer() and gnss() whenever they arrive; read state()."""
+
+    def __init__(self, settings=None):
+        self.settings = s = settings or NavSensorModuleSettings()
+        if s.estimator not in ("agnav", "thesis"):
+            raise ValueError(f"unknown estimator {s.estimator!r}")
+        self.lever = tilt_correction.lever_from_flu(s.lever_flu)
+        if s.estimator == "agnav":
+            self.roll_filter, self.pitch_filter = AttitudeKF(s.roll_kf), AttitudeKF(s.pitch_kf)
+            self.ekf = NavEKF(s.ekf)
+        else:
+            self.roll_filter, self.pitch_filter = AttitudeLSM(s.roll_lsm), AttitudeLSM(s.pitch_lsm)
+            self.heading_lsm = GnssGyroHeading(s.heading)
+            self.dr = DeadReckoning(s.dead_reckoning)
+        self.counters = {k: 0 for k in ("imu", "imu_bad_value", "imu_bad_stamp", "imu_gap", "incl_bad_value",
+                                        "incl_bad_stamp", "gnss", "gnss_bad_value", "gnss_bad_stamp",
+                                        "gnss_too_old", "gnss_gated", "gnss_forced", "velocity_gated")}
+        self._history = deque()
+        self._pending_gnss = []
+        self._incl = None            # (t, roll, pitch) REP-103
+        self._last_incl_t = -math.inf
+        self._last_gnss_t = -math.inf
+        self._last_accepted_t = -math.inf
+        self._rejects = 0
+        self._raw_heading = 0.0      # relative yaw before the absolute heading exists (agnav)
+        self._fix = None             # latest accepted corrected fix (t, xyz, cov)
+        self._heading_known = False  # agnav: absolute heading initialised from the GNSS course
+        self._speed = 0.0            # thesis: travel speed V for dead reckoning
+        self._state = None
+
+    # ---- inputs -------------------------------------------------------------------------------------
+    def inclinometer(self, t, roll, pitch):
+        """Raw inclinometer reading (REP-103 rad) stamped at its epoch."""
+        if not _finite(t, roll, pitch):
+            self.counters["incl_bad_value"] += 1
+            return False
+        if t <= 0 or t <= self._last_incl_t:
+            self.counters["incl_bad_stamp"] += 1
+            return False
+        self._last_incl_t = t
+        self._incl = (t, roll, pitch)
+        return True
+
+    def gnss(self, t, antenna_enu, cov, vel_enu=None):
+        """Antenna fix (map ENU m, 3x3 covariance m^2, optional ENU velocity m/s) stamped at its epoch."""
+        if not _finite(t, antenna_enu, cov) or (vel_enu is not None and not _finite(vel_enu)):
+            self.counters["gnss_bad_value"] += 1
+            return False
+        if t <= 0 or t <= self._last_gnss_t:
+            self.counters["gnss_bad_stamp"] += 1
+            return False
+        if self._history and t < self._history[0].t:
+            self.counters["gnss_too_old"] += 1
+            return False
+        self._last_gnss_t = t
+        self.counters["gnss"] += 1
+        self._pending_gnss.append((t, np.asarray(antenna_enu, float), np.asarray(cov, float),
+                                   None if vel_enu is None else np.asarray(vel_enu, float)))
+        self._drain_gnss()
+        return True
+
+    def imu(self, t, gyro_flu):
+        """Body (base_link FLU) gyro rates (rad/s) at epoch t; advances the module. Returns the new NavState."""
+        if not _finite(t, gyro_flu):
+            self.counters["imu_bad_value"] += 1
+            return None
+        last = self._history[-1].t if self._history else None
+        if t <= 0 or (last is not None and t <= last):
+            self.counters["imu_bad_stamp"] += 1
+            return None
+        self.counters["imu"] += 1
+        dt = 0.0 if last is None else t - last
+        if dt > self.settings.max_dt:
+            self.counters["imu_gap"] += 1
+            dt = self.settings.max_dt
+        self._step(t, dt, np.asarray(gyro_flu, dtype=float))
+        self._drain_gnss()
+        self._state = self._output()
+        return self._state
+
+    def state(self):
+        return self._state
+
+    # ---- per-sample processing -----------------------------------------------------------------------
+    def _step(self, t, dt, gyro):
+        s = self.settings
+        prev = self._history[-1] if self._history else None
+        roll0, pitch0 = (prev.roll, prev.pitch) if prev else (0.0, 0.0)
+        if s.estimator == "agnav":
+            droll, dpitch, dyaw = euler_rates(gyro, roll0, -pitch0)
+        else:  # the thesis treats each axis independently (SPEC §6.2 pitfall)
+            droll, dpitch, dyaw = gyro
+        incl = self._incl if self._incl and t - self._incl[0] <= s.incl_timeout else None
+        self._incl = None if incl else self._incl
+        roll_incl = None if incl is None else incl[1]
+        pitch_incl = None if incl is None else -incl[2]
+        rate_cw = -dyaw
+        if s.estimator == "agnav":
+            acc = self._kinematic_acceleration(gyro, prev, dt) if s.accel_compensation else np.zeros(3)
+            # a pendulum reads roll + a_y/g and (REP-103) pitch - a_x/g, i.e. thesis nose-up pitch + a_x/g
+            roll = self.roll_filter.update(droll, roll_incl, dt, acc[1] / GRAVITY)
+            pitch = self.pitch_filter.update(-dpitch, pitch_incl, dt, acc[0] / GRAVITY)
+            self._raw_heading += rate_cw * dt
+            if self.ekf.x is not None:
+                self.ekf.predict(rate_cw, dt)
+                heading, nav = self.ekf.x[IPHI], (self.ekf.x.copy(), self.ekf.P.copy())
+            else:
+                heading, nav = self._raw_heading, None
+        else:
+            roll = self.roll_filter.update(droll, roll_incl, dt)
+            pitch = self.pitch_filter.update(-dpitch, pitch_incl, dt)
+            heading = self.heading_lsm.on_gyro(rate_cw, dt)
+            heading = self.heading_lsm.raw_heading if heading is None else heading
+            nav = None
+            if self.dr.xy is not None:
+                xy, cov = self.dr.step(heading, self._speed, dt)
+                nav = (xy.copy(), cov.copy())
+        roll = 0.0 if roll is None else roll
+        pitch = 0.0 if pitch is None else pitch
+        raw = self._raw_heading if s.estimator == "agnav" else self.heading_lsm.raw_heading
+        self._history.append(_Sample(t, dt, rate_cw, gyro, roll, pitch, heading, raw, nav))
+        while self._history[0].t < t - s.history:
+            self._history.popleft()
+
+    def _kinematic_acceleration(self, gyro, prev, dt):
+        """Body (FLU) acceleration of the inclinometer: forward A, centripetal V*wz, and the lever-arm terms
+        alpha x r + w x (w x r) (alpha from gyro differences; the inclinometer lag filters its noise)."""
+        speed, accel = (self.ekf.x[IV], self.ekf.x[IA]) if self.ekf.x is not None else (0.0, 0.0)
+        r = np.asarray(self.settings.incl_lever_flu, dtype=float)
+        alpha = (gyro - prev.body_rates) / dt if prev is not None and dt > 0 else np.zeros(3)
+        return (np.array([accel, speed * gyro[2], 0.0]) + np.cross(alpha, r)
+                + np.cross(gyro, np.cross(gyro, r)))
+
+    def _drain_gnss(self):
+        if not self._history:
+            return
+        now = self._history[-1].t
+        ready = [g for g in self._pending_gnss if g[0] <= now]
+        self._pending_gnss = [g for g in self._pending_gnss if g[0] > now]
+        for fix in ready:
+            self._process_fix(*fix)
+
+    # ---- GNSS fix at its epoch ----------------------------------------------------------------------------
+    def _process_fix(self, t, antenna, cov, vel):
+        hist = self._history
+        k = max(i for i in range(len(hist)) if hist[i].t <= t) if hist[0].t <= t else 0
+        snap = hist[k]
+        corrected = tilt_correction.correct(antenna, self.lever, snap.heading, snap.pitch, snap.roll)
+        v_ref = None if vel is None else vel[:2] - self._lever_velocity(snap)
+        R = cov[:2, :2] + self._tilt_variance() * np.eye(2)
+        speed = float(np.hypot(*v_ref)) if v_ref is not None else None
+        fwd = np.array([math.sin(snap.heading), math.cos(snap.heading)])
+        xy = corrected[:2] - (t - snap.t) * (speed or 0.0) * fwd   # align to the snapshot epoch
+        if self.settings.estimator == "agnav":
+            accepted = self._fix_agnav(k, t, xy, R, v_ref, speed)
+        else:
+            accepted = self._fix_thesis(k, t, xy, R, speed)
+        if accepted:
+            self._last_accepted_t = t
+            self._fix = (t, corrected, cov)
+
+    def _gate(self, d2):
+        """True to accept; counts rejections and forces acceptance after too many in a row."""
+        if d2 <= self.settings.gate_chi2:
+            self._rejects = 0
+            return True
+        self._rejects += 1
+        if self._rejects > self.settings.max_consecutive_rejects:
+            self.counters["gnss_forced"] += 1
+            self._rejects = 0
+            return None  # accept, re-initialising the position
+        self.counters["gnss_gated"] += 1
+        return False
+
+    def _fix_agnav(self, k, t, xy, R, v_ref, speed):
+        s, hist, ekf = self.settings, self._history, self.ekf
+        snap = hist[k]
+        if ekf.x is None:  # position and speed from the first fix; heading unknown until moving
+            ekf.initialise(xy, R, snap.heading, speed or 0.0)
+            ekf.P[IPHI, IPHI] = math.pi ** 2
+        elif not self._heading_known:
+            ekf.x, ekf.P = snap.nav[0].copy(), snap.nav[1].copy()
+            course = v_ref if speed is not None and speed >= s.heading_init_speed else None
+            if speed is None and np.hypot(*(xy - self._fix[1][:2])) > 2.0:
+                course = xy - self._fix[1][:2]
+            for i, sigma in ((IPHI, math.pi), (IB, s.ekf.init_bias_sigma)):  # unobservable yet: decouple
+                ekf.P[i, :] = ekf.P[:, i] = 0.0
+                ekf.P[i, i] = sigma ** 2
+            if course is not None:  # absolute heading from the GNSS course
+                ekf.x[IPHI] = math.atan2(course[0], course[1])
+                ekf.P[IPHI, IPHI] = s.ekf.init_heading_sigma ** 2
+                self._heading_known = True
+            y, S, d2, H = ekf.position_innovation(xy, R)
+            ekf.update(y, S, H, R)
+        else:
+            ekf.x, ekf.P = snap.nav[0].copy(), snap.nav[1].copy()
+            y, S, d2, H = ekf.position_innovation(xy, R)
+            verdict = self._gate(d2)
+            if verdict is False:
+                ekf.x, ekf.P = hist[-1].nav[0].copy(), hist[-1].nav[1].copy()
+                return False
+            if verdict is None:
+                ekf.P[:2, :2] += np.outer(y, y)
+                y, S, d2, H = ekf.position_innovation(xy, R)
+            ekf.update(y, S, H, R)
+            if s.use_gnss_velocity and v_ref is not None:
+                Rv = s.velocity_sigma ** 2 * np.eye(2)
+                y, S, d2, H = ekf.velocity_innovation(v_ref, Rv)
+                if d2 <= s.gate_chi2:
+                    ekf.update(y, S, H, Rv)
+                else:
+                    self.counters["velocity_gated"] += 1
+        snap.nav, snap.heading = (ekf.x.copy(), ekf.P.copy()), ekf.x[IPHI]
+        for j in range(k + 1, len(hist)):  # replay the IMU samples received since the epoch
+            ekf.predict(hist[j].rate_cw, hist[j].dt)
+            hist[j].nav, hist[j].heading = (ekf.x.copy(), ekf.P.copy()), ekf.x[IPHI]
+        return True
+
+    def _fix_thesis(self, k, t, xy, R, speed):
+        hist = self._history
+        snap = hist[k]
+        if snap.nav is not None:
+            y = xy - snap.nav[0]
+            S = snap.nav[1] + R
+            verdict = self._gate(float(y @ np.linalg.solve(S, y)))
+            if verdict is False:
+                return False
+        dt_fix = t - self._fix[0] if self._fix else 1.0
+        if speed is None:  # V from successive tilt-corrected fixes (SPEC §6.3 [IMPL])
+            speed = float(np.hypot(*(xy - self._fix[1][:2]))) / dt_fix if self._fix else 0.0
+        self._speed = speed
+        self.heading_lsm.on_fix(xy[0], xy[1], speed, snap.raw_heading, snap.heading, dt_fix)
+        self.dr.reset(xy, R)
+        snap.nav = (xy.copy(), R.copy())
+        for j in range(k + 1, len(hist)):  # (5.12)-(5.13) from the fix epoch to now
+            out = self.dr.step(hist[j].heading, speed, hist[j].dt)
+            hist[j].nav = (out[0].copy(), out[1].copy())
+        return True
+
+    # ---- helpers -----------------------------------------------------------------------------------------
+    def _attitude_variances(self):
+        return self.roll_filter.variance, self.pitch_filter.variance
+
+    def _heading_variance(self):
+        if self.settings.estimator == "agnav":
+            return float(self.ekf.P[IPHI, IPHI]) if self.ekf.x is not None else math.inf
+        pos_var = float(np.trace(self._fix[2][:2, :2])) / 2 if self._fix else 1.0
+        return self.heading_lsm.kise.variance(pos_var) + 1e-6
+
+    def _tilt_variance(self):
+        """Horizontal variance that attitude errors add to the corrected position (per axis)."""
+        vr, vp = self._attitude_variances()
+        vr = min(vr, 0.1) if np.isfinite(vr) else 0.1
+        vp = min(vp, 0.1) if np.isfinite(vp) else 0.1
+        vh = min(self._heading_variance(), 1.0)
+        a, b, h = self.lever
+        return h * h * (vr + vp) / 2 + (a * a + b * b) * vh
+
+    def _lever_velocity(self, snap):
+        """ENU velocity of the antenna relative to base_link from the body rates (omega x lever)."""
+        v_body = np.cross(snap.body_rates, np.asarray(self.settings.lever_flu, float))
+        e = tilt_correction.vehicle_to_ground(snap.heading, snap.pitch, snap.roll)
+        right_fwd_up = np.array([-v_body[1], v_body[0], v_body[2]])
+        return (e @ right_fwd_up)[:2]
+
+    def _output(self):
+        s, snap = self.settings, self._history[-1]
+        vr, vp = self._attitude_variances()
+        big = 1e6
+        pose_cov = np.diag([big, big, big, min(vr, big), min(vp, big), big])
+        twist_cov = np.diag([1.0, 0.01, 0.01, 1e-4, 1e-4, 1e-4])
+        position, speed = np.zeros(3), 0.0
+        heading_valid = position_valid = False
+        if self._fix is not None:
+            position[2] = self._fix[1][2]
+            pose_cov[2, 2] = self._fix[2][2, 2]
+        if s.estimator == "agnav":
+            roll_corr, pitch_corr = -self.roll_filter.bias, -self.pitch_filter.bias
+            yaw_corr = 0.0
+            if snap.nav is not None:
+                x, P = snap.nav
+                position[:2], speed, yaw_corr = x[:2], float(x[IV]), -float(x[IB])
+                heading_valid = self._heading_known
+                idx = [0, 1, IPHI]
+                pose_cov[np.ix_([0, 1, 5], [0, 1, 5])] = P[np.ix_(idx, idx)] * np.array(
+                    [[1, 1, -1], [1, 1, -1], [-1, -1, 1]])
+                twist_cov[0, 0] = P[IV, IV]
+                twist_cov[5, 5] = P[IB, IB] + s.ekf.rate_noise ** 2
+                position_valid = True
+            elif self._fix is not None:
+                position[:2] = self._fix[1][:2]
+                pose_cov[:2, :2] = self._fix[2][:2, :2]
+                position_valid = True
+        else:
+            roll_corr, pitch_corr = self.roll_filter.drift, self.pitch_filter.drift
+            yaw_corr = self.heading_lsm.drift
+            speed = self._speed
+            if snap.nav is not None:
+                position[:2] = snap.nav[0]
+                pose_cov[:2, :2] = snap.nav[1]
+                position_valid = True
+            if self.heading_lsm.heading is not None:
+                heading_valid = True
+                pose_cov[5, 5] = self._heading_variance()
+        rates = snap.body_rates + np.array([roll_corr, -pitch_corr, -yaw_corr])
+        rpy = np.array([snap.roll, -snap.pitch, math.remainder(math.pi / 2 - snap.heading, 2 * math.pi)])
+        dead_reckoning = snap.t - self._last_accepted_t > s.gnss_timeout
+        return NavState(snap.t, position, rpy, pose_cov, speed, rates, twist_cov,
+                        heading_valid, position_valid, dead_reckoning)
