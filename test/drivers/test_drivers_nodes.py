@@ -142,6 +142,21 @@ def test_ubx_node_publishes_fix_velocity_attitude(ros, device):
     h.close()
 
 
+def test_ubx_node_publishes_raw_observations(ros, device):
+    from agnav_drivers.ubx_gnss_node import UbxGnssNode
+    from agnav_msgs.msg import GnssObservations
+    h = Harness(ros, UbxGnssNode, device)
+    h.listen(GnssObservations, "/gnss/raw_observations")
+    stop, _ = h.stream(open(CORPUS + "ublox-neo-m8t.log", "rb").read())
+    assert h.wait(lambda: len(h.got["/gnss/raw_observations"]) >= 5)
+    stop.set()
+    for epoch in h.got["/gnss/raw_observations"]:
+        assert epoch.week > 2000 and 0 <= epoch.receiver_tow < 604800 and epoch.observations
+        gps = [o for o in epoch.observations if o.gnss_id == 0 and o.pseudorange_valid]
+        assert gps and all(1.5e7 < o.pseudorange < 3.0e7 and 0 < o.cno < 70 for o in gps)
+    h.close()
+
+
 def test_adc_node_calibrates_then_publishes_imu_inclinometer_mag(ros, device):
     from sensor_msgs.msg import Imu, MagneticField
     from std_srvs.srv import Trigger

@@ -41,7 +41,6 @@ class UbxGnssNode(StreamDriverNode):
         counters = {k: getattr(c, k) for k in ("frames", "accepted", "ignored", "checksum_failures",
                                                "parse_errors", "rejected", "noise_bytes")}
         detail = {"fix_type": g.FIX_NAMES[self.gnss.last_fix_type], "last_problem": c.last_problem,
-                  "raw_observations": "published" if self.raw.available else "decoded only (no agnav_msgs type)",
                   "esf_measurements": self.esf_measurements}
         if self.esf_status is not None:
             detail["esf_fusion_mode"] = ESF_FUSION.get(self.esf_status.fusion_mode, self.esf_status.fusion_mode)

@@ -1,16 +1,12 @@
 """ROS publishing of raw GNSS observations (RXM-RAWX, RXM-SFRBX) on /gnss/raw_observations and
-/gnss/nav_data, once agnav_msgs provides GnssObservations / GnssObservation / GnssNavData;
-without them the node only decodes (diagnostics say so)."""
+/gnss/nav_data (agnav_msgs GnssObservations / GnssNavData), for tightly coupled GNSS/INS."""
 from __future__ import annotations
 
 from agnav_common.qos import SENSOR_QOS
 
 from .ubx import GnssObservations, NavDataFrame
 
-try:
-    from agnav_msgs.msg import GnssNavData, GnssObservation, GnssObservations as GnssObservationsMsg
-except ImportError:  # message definitions not generated yet
-    GnssNavData = GnssObservation = GnssObservationsMsg = None
+from agnav_msgs.msg import GnssNavData, GnssObservation, GnssObservations as GnssObservationsMsg
 
 GPS_EPOCH_UNIX = 315964800.0  # 1980-01-06T00:00:00Z
 WEEK = 604800.0
@@ -19,14 +15,10 @@ WEEK = 604800.0
 class RawPublishers:
     def __init__(self, node):
         self.node = node
-        self.available = GnssObservationsMsg is not None
-        if self.available:
-            self.obs = node.create_publisher(GnssObservationsMsg, "/gnss/raw_observations", SENSOR_QOS)
-            self.nav = node.create_publisher(GnssNavData, "/gnss/nav_data", SENSOR_QOS)
+        self.obs = node.create_publisher(GnssObservationsMsg, "/gnss/raw_observations", SENSOR_QOS)
+        self.nav = node.create_publisher(GnssNavData, "/gnss/nav_data", SENSOR_QOS)
 
     def publish(self, event) -> int:
-        if not self.available:
-            return 0
         if isinstance(event, GnssObservations):
             self._observations(event)
         elif isinstance(event, NavDataFrame):
