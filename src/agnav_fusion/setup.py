@@ -22,6 +22,9 @@ setup(
     entry_points={
         "console_scripts": [
             "heading_node = agnav_fusion.heading_node:main",
+            "attitude_node = agnav_fusion.attitude_node:main",
+            "gnss_correction_node = agnav_fusion.gnss_correction_node:main",
+            "nav_sensor_module_node = agnav_fusion.nav_sensor_module_node:main",
         ],
     },
 )

@@ -5,6 +5,7 @@ State x = [theta, gyro bias b, lagged angle theta_l]; theta' = omega_meas - b, b
 theta_l' = (theta - theta_l) / tau; the inclinometer (minus its lagged acceleration error) measures theta_l.
 Angles rad, rates rad/s, any consistent sign convention.
 """
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -74,8 +75,8 @@ class AttitudeKF:
 
     @property
     def variance(self):
-        return float(self.P[0, 0])
+        return math.inf if self.P is None else float(self.P[0, 0])
 
     @property
     def bias(self):
-        return float(self.x[1])
+        return 0.0 if self.x is None else float(self.x[1])

@@ -117,6 +117,13 @@ class NavSensorModule:
         self._speed = 0.0            # thesis: travel speed V for dead reckoning
         self._state = None
 
+    def set_mounts(self, lever_flu, incl_lever_flu=None):
+        """Update the base_link -> gnss_link (and inclinometer_link) translations, e.g. when TF arrives."""
+        self.settings.lever_flu = tuple(float(v) for v in lever_flu)
+        self.lever = tilt_correction.lever_from_flu(lever_flu)
+        if incl_lever_flu is not None:
+            self.settings.incl_lever_flu = tuple(float(v) for v in incl_lever_flu)
+
     # ---- inputs -------------------------------------------------------------------------------------
     def inclinometer(self, t, roll, pitch):
         """Raw inclinometer reading (REP-103 rad) stamped at its epoch."""

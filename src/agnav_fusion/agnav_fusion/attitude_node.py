@@ -1,0 +1,48 @@
+"""Attitude node (SPEC §6.2): /imu/data_raw + /inclinometer -> /imu/data (orientation + covariance,
+bias-corrected rates). Runs the navigation sensor module's attitude filters (estimator `agnav`: lag/acceleration
+KF; `thesis`: attitude LSM eq 5.1-5.11); yaw is the gyro-integrated (relative) heading with an
+unknown-size variance. Same parameters as nav_sensor_module_node.
+"""
+from agnav_common.frames import quaternion_from_euler
+from agnav_common.node_main import main_for
+from agnav_common.qos import SENSOR_QOS
+from agnav_common.stamps import to_stamp
+from sensor_msgs.msg import Imu
+
+from agnav_fusion.nav_sensor_module_node import NavSensorModuleNode
+
+UNKNOWN_VARIANCE = 99999.0
+
+
+class AttitudeNode(NavSensorModuleNode):
+    uses_gnss = False  # yaw stays relative (gyro-integrated, large variance); the datum is the module node's
+
+    def __init__(self, **kwargs):
+        super().__init__("attitude_node", **kwargs)
+        self.publish_tf = False
+        self.imu_pub = self.create_publisher(Imu, "/imu/data", SENSOR_QOS)
+
+    def publish(self, s):
+        msg = Imu()
+        msg.header.stamp = to_stamp(s.t)
+        msg.header.frame_id = self.frames["base"]
+        q = msg.orientation
+        q.x, q.y, q.z, q.w = quaternion_from_euler(*s.rpy)
+        cov = s.pose_cov[3:, 3:].copy()
+        cov[2, 2] = min(cov[2, 2], UNKNOWN_VARIANCE)
+        msg.orientation_covariance = [float(v) for v in cov.ravel()]
+        w = msg.angular_velocity
+        w.x, w.y, w.z = (float(v) for v in s.rates)
+        msg.angular_velocity_covariance = [float(v) for v in s.twist_cov[3:, 3:].ravel()]
+        msg.linear_acceleration_covariance[0] = -1.0
+        self.imu_pub.publish(msg)
+
+    def mounts_ready(self):
+        """The attitude needs only the IMU mount; a missing GNSS mount means a zero lever arm."""
+        if self.imu_rotation is None and self.tf.lookup(self.frames["base"], self.frames["imu"]) is not None \
+                and self.tf.lookup(self.frames["base"], self.frames["gnss"]) is None:
+            self.frames["gnss"] = self.frames["base"]
+        return super().mounts_ready()
+
+
+main = main_for(AttitudeNode)

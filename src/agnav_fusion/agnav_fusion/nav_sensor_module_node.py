@@ -1,0 +1,154 @@
+"""Navigation sensor module node (SPEC §6.3): /imu/data_raw + /inclinometer + /gnss/fix (+ /gnss/vel)
+-> /odometry/filtered at the IMU rate (frame map, child base_link, pose + twist covariance), TF map->odom->base_link
+(map->odom identity: the module's map pose is continuous enough between 1 Hz fixes), /map_datum (latched).
+
+Mounts come from TF (base_link->imu_link rotation, ->gnss_link lever arm, ->inclinometer_link); the datum from the
+parameter `datum: [lat, lon, alt]` or the first good fix. GNSS messages are stamped at their epoch and may arrive
+late: the module replays its IMU history. Rejected inputs are counted on /diagnostics; outputs never hold NaN.
+"""
+import numpy as np
+from agnav_common.diagnostics import OK, WARN, Diagnostics
+from agnav_common.frames import quaternion_from_euler
+from agnav_common.geodesy import LocalTangentPlane
+from agnav_common.node_main import main_for
+from agnav_common.qos import LATCHED_QOS, SENSOR_QOS
+from agnav_common.stamps import to_sec, to_stamp
+from agnav_common.tf import TfBuffer, TransformBroadcaster, make_transform
+from agnav_msgs.msg import Inclination
+from geometry_msgs.msg import TwistWithCovarianceStamped
+from nav_msgs.msg import Odometry
+from rclpy.node import Node
+from scipy.spatial.transform import Rotation
+from sensor_msgs.msg import Imu, NavSatFix, NavSatStatus
+
+from agnav_fusion.nav_sensor_module import NavSensorModule
+from agnav_fusion.nav_settings import declare_settings
+
+VEL_MATCH_S = 0.1  # s, a /gnss/vel within this of a fix epoch is fused with it
+
+
+class NavSensorModuleNode(Node):
+    uses_gnss = True
+
+    def __init__(self, name="nav_sensor_module_node", **kwargs):
+        super().__init__(name, **kwargs)
+        p = lambda n, d: self.declare_parameter(n, d).value  # noqa: E731
+        self.frames = {k: p(f"{k}_frame", d) for k, d in (("map", "map"), ("odom", "odom"), ("base", "base_link"),
+                                                           ("imu", "imu_link"), ("gnss", "gnss_link"),
+                                                           ("inclinometer", "inclinometer_link"))}
+        datum = p("datum", [0.0])  # [lat, lon, alt]; anything shorter: the first good fix
+        self.publish_tf = p("publish_tf", True)
+        self.nsm = NavSensorModule(declare_settings(self))
+        self.plane = None
+        self.tf = TfBuffer(self)
+        self.tf_out = TransformBroadcaster(self)
+        self.create_subscription(Imu, "/imu/data_raw", self.on_imu, SENSOR_QOS)
+        self.create_subscription(Inclination, "/inclinometer", self.on_incl, SENSOR_QOS)
+        if self.uses_gnss:
+            self.odom_pub = self.create_publisher(Odometry, "/odometry/filtered", SENSOR_QOS)
+            self.datum_pub = self.create_publisher(NavSatFix, "/map_datum", LATCHED_QOS)
+            self.create_subscription(NavSatFix, "/gnss/fix", self.on_fix, SENSOR_QOS)
+            self.create_subscription(TwistWithCovarianceStamped, "/gnss/vel", self.on_vel, SENSOR_QOS)
+        self.imu_rotation = None
+        self.velocities = []
+        self.missing_tf = 0
+        self.no_fix = 0
+        if len(datum) >= 3 and self.uses_gnss:
+            self.set_datum(*datum[:3])
+        diag = Diagnostics(self, "nav_sensor_module")
+        diag.add("inputs", self.check_inputs)
+        diag.add("state", self.check_state)
+
+    # ---- mounts and datum ---------------------------------------------------------------------------
+    def mounts_ready(self):
+        if self.imu_rotation is not None:
+            return True
+        imu = self.tf.lookup(self.frames["base"], self.frames["imu"])
+        gnss = self.tf.lookup(self.frames["base"], self.frames["gnss"])
+        if imu is None or gnss is None:
+            self.missing_tf += 1
+            return False
+        incl = self.tf.lookup(self.frames["base"], self.frames["inclinometer"])
+        self.imu_rotation = Rotation.from_quat(imu[1]).as_matrix()
+        self.nsm.set_mounts(gnss[0], imu[0] if incl is None else incl[0])
+        return True
+
+    def set_datum(self, lat, lon, alt):
+        self.plane = LocalTangentPlane(float(lat), float(lon), float(alt))
+        msg = NavSatFix()
+        msg.header.frame_id = self.frames["map"]
+        msg.header.stamp = self.get_clock().now().to_msg()
+        msg.latitude, msg.longitude, msg.altitude = float(lat), float(lon), float(alt)
+        msg.status.status = NavSatStatus.STATUS_FIX
+        msg.position_covariance_type = NavSatFix.COVARIANCE_TYPE_UNKNOWN
+        self.datum_pub.publish(msg)
+
+    # ---- inputs ---------------------------------------------------------------------------------------
+    def on_imu(self, msg):
+        if not self.mounts_ready():
+            return
+        w = msg.angular_velocity
+        state = self.nsm.imu(to_sec(msg.header.stamp), self.imu_rotation @ np.array([w.x, w.y, w.z]))
+        if state is not None:
+            self.publish(state)
+
+    def on_incl(self, msg):
+        self.nsm.inclinometer(to_sec(msg.header.stamp), msg.roll, msg.pitch)
+
+    def on_vel(self, msg):
+        v = msg.twist.twist.linear
+        self.velocities = (self.velocities + [(to_sec(msg.header.stamp), np.array([v.x, v.y, v.z]))])[-10:]
+
+    def on_fix(self, msg):
+        if msg.status.status < NavSatStatus.STATUS_FIX:
+            self.no_fix += 1
+            return
+        if self.plane is None:
+            if not np.all(np.isfinite([msg.latitude, msg.longitude, msg.altitude])):
+                self.nsm.counters["gnss_bad_value"] += 1
+                return
+            self.set_datum(msg.latitude, msg.longitude, msg.altitude)
+        t = to_sec(msg.header.stamp)
+        enu = np.array(self.plane.to_enu(msg.latitude, msg.longitude, msg.altitude), dtype=float)
+        cov = np.array(msg.position_covariance, dtype=float).reshape(3, 3)
+        vel = next((v for tv, v in self.velocities if abs(tv - t) <= VEL_MATCH_S), None)
+        self.nsm.gnss(t, enu, cov, vel)
+
+    # ---- outputs ----------------------------------------------------------------------------------------
+    def publish(self, s):
+        stamp = to_stamp(s.t)
+        quat = quaternion_from_euler(*s.rpy)
+        odom = Odometry()
+        odom.header.stamp = stamp
+        odom.header.frame_id = self.frames["map"]
+        odom.child_frame_id = self.frames["base"]
+        pose = odom.pose.pose
+        pose.position.x, pose.position.y, pose.position.z = (float(v) for v in s.position)
+        pose.orientation.x, pose.orientation.y, pose.orientation.z, pose.orientation.w = quat
+        odom.pose.covariance = [float(v) for v in s.pose_cov.ravel()]
+        tw = odom.twist.twist
+        tw.linear.x = float(s.speed)
+        tw.angular.x, tw.angular.y, tw.angular.z = (float(v) for v in s.rates)
+        odom.twist.covariance = [float(v) for v in s.twist_cov.ravel()]
+        self.odom_pub.publish(odom)
+        if self.publish_tf:
+            self.tf_out.send([
+                make_transform(self.frames["map"], self.frames["odom"], stamp, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 1.0)),
+                make_transform(self.frames["odom"], self.frames["base"], stamp, s.position, quat)])
+
+    def check_inputs(self):
+        c = dict(self.nsm.counters, missing_tf=self.missing_tf, no_fix=self.no_fix)
+        bad = sum(v for k, v in c.items() if k not in ("imu", "gnss"))
+        return (WARN if bad or self.imu_rotation is None else OK), f"{bad} inputs rejected", c
+
+    def check_state(self):
+        s = self.nsm.state()
+        if s is None:
+            return WARN, "no IMU yet", {}
+        values = {"dead_reckoning": s.dead_reckoning, "heading_valid": s.heading_valid,
+                  "position_sigma_m": float(np.sqrt(s.pose_cov[0, 0] + s.pose_cov[1, 1]))}
+        ok = s.heading_valid and s.position_valid and not s.dead_reckoning
+        return (OK if ok else WARN), ("tracking" if ok else "degraded"), values
+
+
+main = main_for(NavSensorModuleNode)
