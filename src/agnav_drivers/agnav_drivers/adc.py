@@ -29,7 +29,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .framing import LineSplitter
+from .framing import LineSplitter, skip_to_sync
 
 SYNC = b"\xa5\x5a"
 HEADER = struct.Struct("<BI")   # seq, t_us
@@ -95,14 +95,10 @@ class AdcDecoder:
         buf, c, out = self._buf, self.counters, []
         buf += data
         while True:
-            start = buf.find(SYNC)
-            if start < 0:
-                keep = 1 if buf.endswith(SYNC[:1]) else 0
-                c.noise_bytes += len(buf) - keep
-                del buf[:len(buf) - keep]
+            found, dropped = skip_to_sync(buf, SYNC)
+            c.noise_bytes += dropped
+            if not found:
                 return out
-            c.noise_bytes += start
-            del buf[:start]
             if len(buf) < 3:
                 return out
             n = buf[2]

@@ -1,4 +1,4 @@
-"""Byte-stream to line framing for text protocols (NMEA, ADC CSV mode); no ROS import."""
+"""Byte-stream framing: lines for text protocols (NMEA, ADC CSV), sync hunting for binary ones; no ROS."""
 from __future__ import annotations
 
 import re
@@ -34,3 +34,15 @@ class LineSplitter:
             self.dropped_bytes += len(buf)
             buf.clear()
         return lines
+
+
+def skip_to_sync(buf: bytearray, sync: bytes) -> tuple[bool, int]:
+    """Drop the bytes before the next `sync` in `buf`, keeping a partial sync at its end: (found, dropped)."""
+    start = buf.find(sync)
+    if start >= 0:
+        del buf[:start]
+        return True, start
+    keep = next((k for k in range(len(sync) - 1, 0, -1) if buf.endswith(sync[:k])), 0)
+    dropped = len(buf) - keep
+    del buf[:dropped]
+    return False, dropped

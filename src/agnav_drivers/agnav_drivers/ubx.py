@@ -17,6 +17,7 @@ from dataclasses import dataclass, field
 
 import pyubx2
 
+from .framing import skip_to_sync
 from .gnss_types import (COV_DIAGONAL_KNOWN, FIX_DEAD_RECKONING, FIX_DGPS, FIX_NONE, FIX_RTK_FIXED,
                          FIX_RTK_FLOAT, FIX_SINGLE, POSITION_FIX_TYPES, GnssAttitude, GnssFix, GnssFixStatus,
                          GnssVelocity, ReceiverTime, diag3, finite)
@@ -120,14 +121,10 @@ class UbxParser:
         buf, c, events = self._buf, self.counters, []
         buf += data
         while True:
-            start = buf.find(SYNC)
-            if start < 0:
-                keep = 1 if buf.endswith(SYNC[:1]) else 0
-                c.noise_bytes += len(buf) - keep
-                del buf[:len(buf) - keep]
+            found, dropped = skip_to_sync(buf, SYNC)
+            c.noise_bytes += dropped
+            if not found:
                 return events
-            c.noise_bytes += start
-            del buf[:start]
             if len(buf) < 6:
                 return events
             length = int.from_bytes(buf[4:6], "little")
