@@ -54,8 +54,8 @@ def feed(ros, node, extra_topics, seconds=12.0):
         incl = Inclination(roll=0.0, pitch=0.0)
         incl.header.stamp = to_stamp(t)
         incl_pub.publish(incl)
-        for _ in range(3):
-            ex.spin_once(timeout_sec=0.0)
+        for _ in range(8):  # deliver everything: keep-last queues would drop a burst
+            ex.spin_once(timeout_sec=0.001)
     for _ in range(50):
         ex.spin_once(timeout_sec=0.01)
     ex.shutdown()
