@@ -92,7 +92,7 @@ def test_gnss_jump_is_gated():
     nsm, out = drive(seconds=60.0, jump_at=(50.0,))
     assert nsm.counters["gnss_gated"] == 1
     pos, _ = errors(out, 49.0, 53.0)
-    assert pos < 0.08
+    assert pos < 0.15  # an accepted 5 m jump would put metres here
 
 
 def test_30s_outage_dead_reckons_with_growing_covariance_and_reconverges():

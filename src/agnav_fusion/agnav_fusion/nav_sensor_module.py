@@ -35,7 +35,7 @@ class NavSensorModuleSettings:
     ekf: NavEKFSettings = field(default_factory=NavEKFSettings)
     incl_lever_flu: tuple = (0.0, 0.0, 0.0)   # m, base_link -> inclinometer_link translation (from TF)
     accel_compensation: bool = True           # agnav: remove the modelled kinematic acceleration from the inclinometer
-    use_gnss_velocity: bool = True            # agnav: fuse /gnss/vel (course + speed) as well
+    use_gnss_velocity: bool = False           # agnav: also fuse /gnss/vel (hurt heading on the AgGPS132 run)
     velocity_sigma: float = 0.05              # m/s, 1-sigma per axis of GNSS velocity
     gate_chi2: float = 13.8                   # squared Mahalanobis gate, 2 dof 99.9 %
     max_consecutive_rejects: int = 5          # then accept with re-initialised position (no lock-out)
