@@ -63,6 +63,7 @@ class BagPlayerNode(Node):
         self._t0 = None
         self._last_clock = -1
         self._pending = None
+        self._last_progress = 0.0
         # Start once every topic has min_subscribers matched (probe and recorder count) and start_delay
         # has passed, so that subscribers in other processes have discovered us; give up waiting after 10 s.
         self.min_subscribers = int(p["min_subscribers"]) + (1 if self.rate == 0.0 else 0)
@@ -124,8 +125,10 @@ class BagPlayerNode(Node):
             pub.publish(msg.data)
             self.published += 1
 
-    def _show_progress(self):
-        if self.progress and self._t0 is not None:
+    def _show_progress(self, final=False):
+        now = time.monotonic()
+        if self.progress and self._t0 is not None and (final or now - self._last_progress > 0.25):
+            self._last_progress = now
             span = max(self.source.end_ns - self.source.start_ns, 1)
             frac = min(max((self._last_clock - self.source.start_ns) / span, 0.0), 1.0)
             bar = "#" * int(frac * 40)
@@ -135,6 +138,7 @@ class BagPlayerNode(Node):
     def _finish(self):
         self.finished = True
         if self.progress:
+            self._show_progress(final=True)
             sys.stderr.write("\n")
         self.get_logger().info(f"replay finished: {self.published} messages")
 
