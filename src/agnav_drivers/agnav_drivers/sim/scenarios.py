@@ -39,10 +39,10 @@ def jcs7401a():
 
 
 # Murata ENV-05D-52, SPEC §11.3 (Ch. III, 50 Hz): DC-7 Hz, ±80°/s, noise 0.3°/s (≤ 0.9), 1 000-sample zero
-# calibration residual ±0.02°/s, a motion offset ≈ −0.12°/s (R3-5: > 14° in ≈100 s, r.m.s. 7.5°) and the warm-up
-# rise of 0.36°/s.
+# calibration residual ±0.02°/s, the equivalent mean bias −0.14°/s once moving (R3-5: > 14° in ≈100 s, r.m.s.
+# 7.5°) and the warm-up rise of 0.36°/s.
 ENV05D = GyroParams(bandwidth_hz=7.0, range_dps=80.0, scale_error=0.01, offset_dps=0.02,
-                    motion_bias_dps=(0.0, 0.0, -0.12), motion_bias_spread=0.1, warmup_dps=0.36, noise_dps=0.3)
+                    motion_bias_dps=(0.0, 0.0, -0.14), motion_bias_spread=0.1, warmup_dps=0.36, noise_dps=0.3)
 # Schaevitz AccuStar, SPEC §11.5: τ = 0.3 s, null repeatability 0.05°, cross-axis 1 %, ±45° linear; the white
 # noise stands for the engine/vehicle vibration that gives the R3-1 dynamic errors (roll 0.77°, pitch 0.59°).
 ACCUSTAR = InclParams(tau_s=0.3, offset_deg=0.05, scale_error=0.01, cross_axis=0.01, noise_deg=0.6, range_deg=45.0)

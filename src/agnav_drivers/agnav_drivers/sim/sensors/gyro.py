@@ -12,7 +12,8 @@ class GyroParams:
     """Error model in data-sheet units (deg/s); per-axis tuples are (x, y, z) of the sensor frame.
 
     Output = clip(LPF_bw[(1+s)ω] + b(t) + n) with b(t) = b_off + b_motion·m(t) + b_warm(1-e^{-t/τw}) + random walk.
-    b_off: V_static error left after the pre-run standstill mean (uniform ±); b_motion: offset that appears once the
+    b_off: V_static error left after the pre-run standstill mean, or a FOG's turn-on drift (random sign, magnitude
+    uniform in [offset_min_dps, offset_dps]); b_motion: offset that appears once the
     vehicle moves (vibration, supply load; the thesis' equivalent mean biases, SPEC §11.4), spread per seed;
     m(t): motion indicator through a lag; angle_noise_deg: white noise on the integrated angle (FOG, SPEC §11.2).
     """
@@ -21,6 +22,7 @@ class GyroParams:
     range_dps: float = 60.0
     scale_error: float = 0.01
     offset_dps: float = 0.0
+    offset_min_dps: float = 0.0
     motion_bias_dps: tuple = (0.0, 0.0, 0.0)
     motion_bias_spread: float = 0.2
     motion_tau_s: float = 5.0
@@ -39,7 +41,9 @@ class Gyro:
         self._rng = rng
         d = math.radians
         self.scale = rng.uniform(-params.scale_error, params.scale_error, 3)
-        self.offset = d(params.offset_dps) * rng.uniform(-1, 1, 3)
+        u = rng.uniform(-1, 1, 3)
+        magnitude = params.offset_min_dps + (params.offset_dps - params.offset_min_dps) * np.abs(u)
+        self.offset = np.sign(u) * np.radians(magnitude)
         self.motion_bias = np.radians(params.motion_bias_dps) * (1 + params.motion_bias_spread * rng.standard_normal(3))
         self._lpf = FirstOrderLag.from_bandwidth(params.bandwidth_hz)
         self._motion = FirstOrderLag(params.motion_tau_s)
