@@ -5,7 +5,7 @@ unknown-size variance. Same parameters as nav_sensor_module_node.
 """
 from agnav_common.frames import quaternion_from_euler
 from agnav_common.node_main import main_for
-from agnav_common.qos import SENSOR_QOS
+from agnav_common.qos import PUBLISHER_QOS
 from agnav_common.stamps import to_stamp
 from sensor_msgs.msg import Imu
 
@@ -20,7 +20,11 @@ class AttitudeNode(NavSensorModuleNode):
     def __init__(self, **kwargs):
         super().__init__("attitude_node", **kwargs)
         self.publish_tf = False
-        self.imu_pub = self.create_publisher(Imu, "/imu/data", SENSOR_QOS)
+        self.imu_pub = self.create_publisher(Imu, "/imu/data", PUBLISHER_QOS)
+
+    def ready(self, state):
+        """Attitude is published from the first sample (yaw relative, with its large variance)."""
+        return True
 
     def publish(self, s):
         msg = Imu()

@@ -3,15 +3,24 @@
 (map->odom identity: the module's map pose is continuous enough between 1 Hz fixes), /map_datum (latched).
 
 Mounts come from TF (base_link->imu_link rotation, ->gnss_link lever arm, ->inclinometer_link); the datum from the
-parameter `datum: [lat, lon, alt]` or the first good fix. GNSS messages are stamped at their epoch and may arrive
-late: the module replays its IMU history. Rejected inputs are counted on /diagnostics; outputs never hold NaN.
+parameter `datum: [lat, lon, alt]` or the first good fix. IMUs without inclinometers (`tilt_source: accelerometer`)
+feed the tilt filters with the accelerometer's gravity direction, which errs by a/g like a pendulum (the module's
+acceleration compensation applies; its lag `*_kf.tau` should then be about one IMU period). GNSS messages are stamped at their epoch and may arrive
+late: the module replays its IMU history. A receiver publishes /gnss/fix before /gnss/vel of the same epoch, so once
+/gnss/vel has been seen a fix waits for its velocity up to `velocity_wait` s of IMU time (the velocity gives the
+course that initialises the absolute heading); a receiver without /gnss/vel gets the velocity of its fixes over
+the last `fix_velocity_baseline` m (at most FIX_HISTORY fixes back). Like robot_localization, nothing is published on /odometry/filtered
+or TF until heading and position are initialised (diagnostic "initialising"). Rejected inputs are counted on
+/diagnostics; outputs never hold NaN.
 """
+import math
+
 import numpy as np
 from agnav_common.diagnostics import OK, WARN, Diagnostics
 from agnav_common.frames import quaternion_from_euler
 from agnav_common.geodesy import LocalTangentPlane
 from agnav_common.node_main import main_for
-from agnav_common.qos import LATCHED_QOS, SENSOR_QOS
+from agnav_common.qos import LATCHED_QOS, PUBLISHER_QOS, SENSOR_QOS
 from agnav_common.stamps import to_sec, to_stamp
 from agnav_common.tf import TfBuffer, TransformBroadcaster, make_transform
 from agnav_msgs.msg import Inclination
@@ -25,6 +34,12 @@ from agnav_fusion.nav_sensor_module import NavSensorModule
 from agnav_fusion.nav_settings import declare_settings
 
 VEL_MATCH_S = 0.1  # s, a /gnss/vel within this of a fix epoch is fused with it
+FIX_HISTORY = 10  # fixes kept for the fix-difference velocity
+
+
+def accelerometer_tilt(f):
+    """REP-103 (roll, pitch) of the specific force f (base_link FLU, m/s^2; +g up at rest)."""
+    return math.atan2(f[1], f[2]), math.atan2(-f[0], math.hypot(f[1], f[2]))
 
 
 class NavSensorModuleNode(Node):
@@ -38,19 +53,29 @@ class NavSensorModuleNode(Node):
                                                            ("inclinometer", "inclinometer_link"))}
         datum = p("datum", [0.0])  # [lat, lon, alt]; anything shorter: the first good fix
         self.publish_tf = p("publish_tf", True)
+        self.tilt_source = p("tilt_source", "inclinometer")  # inclinometer | accelerometer (/imu/data_raw)
+        if self.tilt_source not in ("inclinometer", "accelerometer"):
+            raise ValueError(f"tilt_source must be inclinometer or accelerometer, not {self.tilt_source!r}")
+        self.velocity_wait = p("velocity_wait", 0.2)  # s of IMU time a fix waits for its /gnss/vel
+        self.fix_velocity_baseline = p("fix_velocity_baseline", 2.0)  # m; 0: no velocity without /gnss/vel
         self.nsm = NavSensorModule(declare_settings(self))
         self.plane = None
         self.tf = TfBuffer(self)
         self.tf_out = TransformBroadcaster(self)
         self.create_subscription(Imu, "/imu/data_raw", self.on_imu, SENSOR_QOS)
-        self.create_subscription(Inclination, "/inclinometer", self.on_incl, SENSOR_QOS)
+        if self.tilt_source == "inclinometer":
+            self.create_subscription(Inclination, "/inclinometer", self.on_incl, SENSOR_QOS)
         if self.uses_gnss:
-            self.odom_pub = self.create_publisher(Odometry, "/odometry/filtered", SENSOR_QOS)
+            self.odom_pub = self.create_publisher(Odometry, "/odometry/filtered", PUBLISHER_QOS)
             self.datum_pub = self.create_publisher(NavSatFix, "/map_datum", LATCHED_QOS)
             self.create_subscription(NavSatFix, "/gnss/fix", self.on_fix, SENSOR_QOS)
             self.create_subscription(TwistWithCovarianceStamped, "/gnss/vel", self.on_vel, SENSOR_QOS)
         self.imu_rotation = None
         self.velocities = []
+        self.pending_fixes = []  # (t, enu, cov, deadline) waiting for their velocity
+        self.recent_fixes = []   # (t, enu) for the fix-difference velocity
+        self.last_imu_t = 0.0
+        self.published = 0
         self.missing_tf = 0
         self.no_fix = 0
         if len(datum) >= 3 and self.uses_gnss:
@@ -73,11 +98,11 @@ class NavSensorModuleNode(Node):
         self.nsm.set_mounts(gnss[0], imu[0] if incl is None else incl[0])
         return True
 
-    def set_datum(self, lat, lon, alt):
+    def set_datum(self, lat, lon, alt, stamp=None):
         self.plane = LocalTangentPlane(float(lat), float(lon), float(alt))
         msg = NavSatFix()
         msg.header.frame_id = self.frames["map"]
-        msg.header.stamp = self.get_clock().now().to_msg()
+        msg.header.stamp = stamp or self.get_clock().now().to_msg()
         msg.latitude, msg.longitude, msg.altitude = float(lat), float(lon), float(alt)
         msg.status.status = NavSatStatus.STATUS_FIX
         msg.position_covariance_type = NavSatFix.COVARIANCE_TYPE_UNKNOWN
@@ -87,10 +112,22 @@ class NavSensorModuleNode(Node):
     def on_imu(self, msg):
         if not self.mounts_ready():
             return
+        t = to_sec(msg.header.stamp)
+        self.submit_fixes(lambda fix: fix[3] < t)
+        if self.tilt_source == "accelerometer":
+            a = msg.linear_acceleration
+            self.nsm.inclinometer(t, *accelerometer_tilt(self.imu_rotation @ np.array([a.x, a.y, a.z])))
         w = msg.angular_velocity
-        state = self.nsm.imu(to_sec(msg.header.stamp), self.imu_rotation @ np.array([w.x, w.y, w.z]))
+        state = self.nsm.imu(t, self.imu_rotation @ np.array([w.x, w.y, w.z]))
         if state is not None:
-            self.publish(state)
+            self.last_imu_t = max(self.last_imu_t, state.t)
+            if self.ready(state):
+                self.publish(state)
+                self.published += 1
+
+    def ready(self, state):
+        """Publish only an initialised solution (absolute heading and position)."""
+        return state.heading_valid and state.position_valid
 
     def on_incl(self, msg):
         self.nsm.inclinometer(to_sec(msg.header.stamp), msg.roll, msg.pitch)
@@ -98,6 +135,26 @@ class NavSensorModuleNode(Node):
     def on_vel(self, msg):
         v = msg.twist.twist.linear
         self.velocities = (self.velocities + [(to_sec(msg.header.stamp), np.array([v.x, v.y, v.z]))])[-10:]
+        self.submit_fixes(lambda fix: self.velocity_at(fix[0]) is not None)
+
+    def velocity_at(self, t):
+        return next((v for tv, v in self.velocities if abs(tv - t) <= VEL_MATCH_S), None)
+
+    def fix_velocity(self, t, enu):
+        """ENU velocity from the latest earlier fix at least fix_velocity_baseline m away, else None."""
+        base = next(((t0, p0) for t0, p0 in reversed(self.recent_fixes)
+                     if t0 < t and np.hypot(*(enu[:2] - p0[:2])) >= self.fix_velocity_baseline), None)
+        self.recent_fixes = (self.recent_fixes + [(t, enu)])[-FIX_HISTORY:]
+        if base is None or self.fix_velocity_baseline <= 0:
+            return None
+        return (enu - base[1]) / (t - base[0])
+
+    def submit_fixes(self, due):
+        """Hand the pending fixes up to the last due one to the module, in epoch order."""
+        last = max((i for i, fix in enumerate(self.pending_fixes) if due(fix)), default=-1)
+        for t, enu, cov, _ in self.pending_fixes[:last + 1]:
+            self.nsm.gnss(t, enu, cov, self.velocity_at(t) if self.velocities else self.fix_velocity(t, enu))
+        del self.pending_fixes[:last + 1]
 
     def on_fix(self, msg):
         if msg.status.status < NavSatStatus.STATUS_FIX:
@@ -107,12 +164,14 @@ class NavSensorModuleNode(Node):
             if not np.all(np.isfinite([msg.latitude, msg.longitude, msg.altitude])):
                 self.nsm.counters["gnss_bad_value"] += 1
                 return
-            self.set_datum(msg.latitude, msg.longitude, msg.altitude)
+            self.set_datum(msg.latitude, msg.longitude, msg.altitude, msg.header.stamp)
         t = to_sec(msg.header.stamp)
         enu = np.array(self.plane.to_enu(msg.latitude, msg.longitude, msg.altitude), dtype=float)
         cov = np.array(msg.position_covariance, dtype=float).reshape(3, 3)
-        vel = next((v for tv, v in self.velocities if abs(tv - t) <= VEL_MATCH_S), None)
-        self.nsm.gnss(t, enu, cov, vel)
+        self.pending_fixes.append((t, enu, cov, self.last_imu_t + self.velocity_wait))
+        waits = self.velocities and self.velocity_wait > 0 and self.velocity_at(t) is None
+        if not waits:
+            self.submit_fixes(lambda fix: True)
 
     # ---- outputs ----------------------------------------------------------------------------------------
     def publish(self, s):
@@ -145,7 +204,9 @@ class NavSensorModuleNode(Node):
         s = self.nsm.state()
         if s is None:
             return WARN, "no IMU yet", {}
-        values = {"dead_reckoning": s.dead_reckoning, "heading_valid": s.heading_valid,
+        if not self.ready(s):
+            return WARN, "initialising", {"heading_valid": s.heading_valid, "position_valid": s.position_valid}
+        values = {"published": self.published, "dead_reckoning": s.dead_reckoning, "heading_valid": s.heading_valid,
                   "position_sigma_m": float(np.sqrt(s.pose_cov[0, 0] + s.pose_cov[1, 1]))}
         ok = s.heading_valid and s.position_valid and not s.dead_reckoning
         return (OK if ok else WARN), ("tracking" if ok else "degraded"), values
