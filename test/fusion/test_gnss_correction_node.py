@@ -1,0 +1,91 @@
+"""rclpy test of gnss_correction_node: the corrected fix of a known tilted pose is the antenna minus R(rpy) lever."""
+import math
+
+import numpy as np
+import pytest
+
+pytest.importorskip("rclpy")
+
+from agnav_common.frames import quaternion_from_euler  # noqa: E402
+from agnav_common.geodesy import LocalTangentPlane  # noqa: E402
+from agnav_common.stamps import to_stamp  # noqa: E402
+from agnav_common.tf import StaticTransformPublisher, make_transform  # noqa: E402
+from scipy.spatial.transform import Rotation  # noqa: E402
+
+DATUM = (43.07, 141.34, 45.0)
+LEVER = (0.0, -1.67, 3.23)            # base_link -> gnss_link (R4-7/8 antenna), FLU m
+RPY = (math.radians(6.0), math.radians(-4.0), math.radians(120.0))  # REP-103: right side down, nose up, yaw
+
+
+def spin(ex, n=20):
+    for _ in range(n):
+        ex.spin_once(timeout_sec=0.01)
+
+
+def run_node(ros, fixes, odom_stamps):
+    from nav_msgs.msg import Odometry
+    from rclpy.executors import SingleThreadedExecutor
+    from sensor_msgs.msg import NavSatFix, NavSatStatus
+
+    from agnav_common.qos import SENSOR_QOS
+    from agnav_fusion.gnss_correction_node import GnssCorrectionNode
+
+    node = GnssCorrectionNode()
+    src = ros.create_node("gnss_correction_test_source")
+    got = []
+    src.create_subscription(NavSatFix, "/gnss/fix_corrected", got.append, SENSOR_QOS)
+    StaticTransformPublisher(src).send(
+        [make_transform("base_link", "gnss_link", to_stamp(1.0), LEVER, (0.0, 0.0, 0.0, 1.0))])
+    odom_pub = src.create_publisher(Odometry, "/odometry/filtered", SENSOR_QOS)
+    fix_pub = src.create_publisher(NavSatFix, "/gnss/fix", SENSOR_QOS)
+    ex = SingleThreadedExecutor()
+    ex.add_node(src)
+    ex.add_node(node)
+    spin(ex)
+    for t in odom_stamps:
+        odom = Odometry()
+        odom.header.stamp = to_stamp(t)
+        q = odom.pose.pose.orientation
+        q.x, q.y, q.z, q.w = quaternion_from_euler(*RPY)
+        odom.pose.covariance = list(np.diag([0.01, 0.01, 0.01, 1e-6, 1e-6, 1e-4]).ravel())
+        odom_pub.publish(odom)
+        spin(ex, 2)
+    for t, lat, lon, alt in fixes:
+        fix = NavSatFix(latitude=lat, longitude=lon, altitude=alt)
+        fix.header.stamp = to_stamp(t)
+        fix.status.status = NavSatStatus.STATUS_GBAS_FIX
+        fix.position_covariance = [1e-4, 0, 0, 0, 1e-4, 0, 0, 0, 4e-4]
+        fix_pub.publish(fix)
+        spin(ex, 5)
+    spin(ex)
+    counts = dict(node.counts)
+    ex.shutdown()
+    node.destroy_node()
+    src.destroy_node()
+    return got, counts
+
+
+def test_corrected_fix_of_a_known_pose(ros):
+    plane = LocalTangentPlane(*DATUM)
+    base = np.array([10.0, -5.0, 1.0])
+    antenna = base + Rotation.from_euler("ZYX", RPY[::-1]).apply(LEVER)  # body FLU -> ENU, independent of the core
+    lat, lon, alt = (float(v) for v in plane.to_geodetic(*antenna))
+    bad = (200.4, math.nan, lon, alt)
+    got, counts = run_node(ros, [(200.0, lat, lon, alt), bad, (199.0, lat, lon, alt)],
+                           odom_stamps=[199.9, 200.05])
+    assert len(got) == 1, counts
+    out = got[0]
+    corrected = np.array(plane.to_enu(out.latitude, out.longitude, out.altitude), dtype=float)
+    assert np.allclose(corrected, base, atol=1e-3)
+    assert np.linalg.norm(antenna[:2] - base[:2]) > 1.0  # the correction is not trivially small
+    assert out.header.frame_id == "base_link" and out.header.stamp.sec == 200
+    cov = np.array(out.position_covariance).reshape(3, 3)
+    assert np.all(np.isfinite(cov)) and cov[0, 0] > 1e-4  # attitude variance through the lever arm is added
+    assert counts["bad_value"] == 1 and counts["bad_stamp"] == 1
+
+
+def test_fix_without_recent_attitude_is_not_corrected(ros):
+    plane = LocalTangentPlane(*DATUM)
+    lat, lon, alt = (float(v) for v in plane.to_geodetic(0.0, 0.0, 3.0))
+    got, counts = run_node(ros, [(300.0, lat, lon, alt)], odom_stamps=[200.0])
+    assert got == [] and counts["no_attitude"] == 1
