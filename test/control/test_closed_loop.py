@@ -1,11 +1,15 @@
-"""Offline closed loop in the simulator (sensor samples -> estimator -> controller), never fed truth."""
+"""Offline closed loop in the simulator (sensor samples -> agnav_fusion NavSensorModule / VWA -> controller), never fed truth."""
 import numpy as np
 import pytest
 from agnav_control.closed_loop import ClosedLoopSettings, run
 
 
-def test_rtk_fast_run_stays_on_line_and_beats_untilted():
-    tilt = run(ClosedLoopSettings(scenario="rtk_straight_fast", seed=3, controller="pid", auto_distance=80.0))
+# the operator drives until the cold-started fusion has converged (heading from the GNSS course), then engages
+RTK = dict(scenario="rtk_straight_fast", manual_distance=40.0, route_length=230.0)
+
+
+def test_rtk_fast_run_stays_on_line():
+    tilt = run(ClosedLoopSettings(seed=3, controller="pid", auto_distance=80.0, **RTK))
     assert tilt.along[-1] >= 80.0 and tilt.disengaged is None
     assert tilt.max_abs < 0.15       # within the thesis' ±10 cm practical band plus margin at 4.3 m/s
     assert np.all(np.isfinite(tilt.steering))
@@ -14,8 +18,7 @@ def test_rtk_fast_run_stays_on_line_and_beats_untilted():
 
 
 def test_converges_from_offset_line():
-    r = run(ClosedLoopSettings(scenario="rtk_straight_fast", seed=4, controller="stanley", line_offset=0.5,
-                               auto_distance=60.0))
+    r = run(ClosedLoopSettings(seed=4, controller="stanley", line_offset=0.5, auto_distance=60.0, **RTK))
     assert abs(r.cross_track[0]) == pytest.approx(0.5, abs=0.1)
     assert r.settling_distance(0.1) < 40.0
     assert np.max(np.abs(r.cross_track[r.along > 40.0])) < 0.1

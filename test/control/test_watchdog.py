@@ -82,3 +82,15 @@ def test_refused_when_unhealthy_and_manual_disengage():
     assert wd.request_engage(t)[0]
     wd.disengage(t, "operator")
     assert not wd.engaged and wd.transitions[-1].reason == "operator"
+
+
+def test_engage_waits_for_converged_odometry_but_that_gate_never_disengages():
+    wd = Watchdog()
+    loose = OdometrySample(x=0.0, y=0.0, yaw=0.0, speed=2.0, position_var=0.1**2, yaw_var=0.05**2)
+    t = fed(wd, sample=loose)
+    ok, why = wd.request_engage(t)
+    assert not ok and "not converged" in why and wd.fault is None
+    t = fed(wd, t0=t + 0.01)
+    assert wd.request_engage(t)[0]
+    t = fed(wd, t0=t + 0.01, sample=loose)  # within the disengage thresholds
+    assert wd.engaged

@@ -6,12 +6,13 @@ from dataclasses import dataclass, field, fields
 
 import numpy as np
 from agnav_drivers.sim import TractorSimulator
+from agnav_drivers.sim.route import straight
 
 from .controllers import CONTROLLERS, make_controller
-from .guidance_line import GuidanceLine, TrackingError
+from .fusion_adapters import GdsSettings, GdsVwaEstimator, NsmEstimator
+from .guidance_line import GuidanceLine
 from .limits import SteeringLimits
-from .sim_estimators import GdsVwaEstimator, RtkEstimator
-from .watchdog import OdometrySample, Watchdog
+from .watchdog import Watchdog
 
 
 @dataclass
@@ -26,6 +27,7 @@ class ClosedLoopSettings:
     line_offset: float = 0.0         # m, desired line left of the route: step response / settling
     control_rate: float = 0.0        # Hz; 0 = at every estimator output (as the node: at the odometry rate)
     gds_speed: float = 0.5           # m/s, v(k) of (2.7) for the GDS system (no odometer; thesis value)
+    route_length: float = 0.0        # m of straight route (0: the scenario's); room to engage once the fusion converged
 
 
 @dataclass
@@ -36,6 +38,7 @@ class ClosedLoopResult:
     estimated: np.ndarray   # m, the controller's cross-track
     steering: np.ndarray    # rad, commanded
     disengaged: str | None  # watchdog reason if it ended the run early
+    gnss_error: np.ndarray = field(default_factory=lambda: np.zeros(0))  # m, fix error across the line while engaged
 
     @property
     def rms(self) -> float:
@@ -68,52 +71,57 @@ def _controller(settings: ClosedLoopSettings, vehicle):
 
 def run(settings: ClosedLoopSettings) -> ClosedLoopResult:
     """Simulate one engaged straight run and return its trace."""
-    sim = TractorSimulator(settings.scenario, settings.seed)
+    overrides = {"route": straight(settings.route_length)} if settings.route_length > 0 else {}
+    sim = TractorSimulator(settings.scenario, settings.seed, **overrides)
     sc = sim.scenario
     route = np.asarray(sc.route, dtype=float)
     line = GuidanceLine.from_points(route[0], route[-1]).offset(settings.line_offset)
+    score_line = line
     rtk = sc.gnss is not None
-    est = RtkEstimator(sc.datum, sc.mounts["gnss_link"][0], 1.0 / sc.gnss.rate_hz, settings.tilt) if rtk else GdsVwaEstimator()
+    est = NsmEstimator(sc, settings.tilt) if rtk else GdsVwaEstimator(sc, line.yaw, GdsSettings(speed=settings.gds_speed))
     controller = _controller(settings, sc.vehicle)
     watchdog = Watchdog()
     period = 1.0 / settings.control_rate if settings.control_rate > 0 else 0.0
-    command, next_control, last_control, eps, start = None, -math.inf, None, 0.0, None
-    rows, reason = [], None
+    command, next_control, last_control, start = None, -math.inf, None, None
+    rows, reason, gnss_errors = [], None, []
     while not sim.done:
-        for kind, stamp, data in sim.step(command if watchdog.engaged else None):
+        for kind, stamp, data in sorted(sim.step(command if watchdog.engaged else None), key=_feed_order):
             if kind != "truth":
                 est.feed(kind, stamp, data)
+            if kind == "gnss" and watchdog.engaged:
+                gnss_errors.append(score_line.error(*data["enu"][:2], 0.0, 0.0).cross_track
+                                   - score_line.error(*data["truth_enu"][:2], 0.0, 0.0).cross_track)
         truth = sim.truth_state()
-        t = truth["t"]
-        if not est.ready or t < next_control:
+        pose = est.pose()
+        if pose is None or truth["t"] < next_control:
             continue
+        t, odo = pose.t, pose.sample
         dt = 0.0 if last_control is None else t - last_control
         next_control, last_control = t + period - 1e-9, t
-        if rtk:
-            odo = est.odometry()
-            watchdog.odometry(t, OdometrySample(odo.x, odo.y, odo.yaw, odo.speed, odo.position_var, odo.yaw_var))
-            err = line.error(odo.x, odo.y, odo.yaw, odo.speed)
-        else:  # GDS system: heading deviation only; cross-track dead-reckoned with (2.7) at the fixed speed
-            dphi = est.deviation
-            if watchdog.engaged:
-                eps += settings.gds_speed * dt * math.sin(dphi)
-            err = TrackingError(-eps, -dphi, line.yaw, settings.gds_speed, 0.0)
-            watchdog.odometry(t, OdometrySample(0.0, 0.0, 0.0, settings.gds_speed, 0.0, 0.0))
+        watchdog.odometry(t, odo)
         if start is None and sim.travelled >= settings.manual_distance:
             if watchdog.request_engage(t)[0]:
                 controller.reset()
-                start = line.error(truth["x"], truth["y"], truth["yaw"], 0.0).along_track
+                if not rtk:  # no absolute position: the target line starts where the system engages
+                    line = GuidanceLine(odo.x, odo.y, line.yaw)
+                start = score_line.error(truth["x"], truth["y"], truth["yaw"], 0.0).along_track
         if start is not None and not watchdog.engaged:
             reason = watchdog.transitions[-1].reason
             break
         if not watchdog.engaged:
             continue
+        err = line.error(odo.x, odo.y, odo.yaw, odo.speed)
         command = controller.update(err, dt)
-        true = line.error(truth["x"], truth["y"], truth["yaw"], truth["speed"])
+        true = score_line.error(truth["x"], truth["y"], truth["yaw"], truth["speed"])
         rows.append((t, true.along_track - start, true.cross_track, err.cross_track, command))
         if true.along_track - start >= settings.auto_distance:
             break
     if not rows:
         raise RuntimeError(f"never engaged in {settings.scenario} ({watchdog.fault})")
     t, along, cross, est_cross, steer = (np.array(c) for c in zip(*rows))
-    return ClosedLoopResult(t, along, cross, est_cross, steer, reason)
+    return ClosedLoopResult(t, along, cross, est_cross, steer, reason, np.array(gnss_errors))
+
+
+def _feed_order(sample):
+    """Within one tick: attitude, then the gyro sample that uses it, then the fixes and GDS headings it brackets."""
+    return {"incl": 0, "imu": 1}.get(sample[0], 2)

@@ -6,7 +6,7 @@ from agnav_common.diagnostics import ERROR, OK, WARN, Diagnostics
 from agnav_common.frames import euler_from_quaternion
 from agnav_common.geodesy import LocalTangentPlane
 from agnav_common.node_main import main_for
-from agnav_common.qos import LATCHED_QOS, SENSOR_QOS
+from agnav_common.qos import LATCHED_QOS, PUBLISHER_QOS, SENSOR_QOS
 from agnav_common.stamps import StampGuard, to_sec
 from agnav_fusion.variance_weighted_average import VwaSettings
 from agnav_msgs.msg import GuidanceState, SteeringCommand
@@ -43,7 +43,9 @@ class SteeringNode(Node):
             max_yaw_std=p("watchdog.max_yaw_std", w.max_yaw_std),
             min_speed=p("watchdog.min_speed", w.min_speed),
             panic_deceleration=p("watchdog.panic_deceleration", w.panic_deceleration),
-            decel_window=p("watchdog.decel_window", w.decel_window)), on_transition=self._on_transition)
+            decel_window=p("watchdog.decel_window", w.decel_window),
+            engage_position_std=p("watchdog.engage_position_std", w.engage_position_std),
+            engage_yaw_std=p("watchdog.engage_yaw_std", w.engage_yaw_std)), on_transition=self._on_transition)
         self.bidirectional = p("bidirectional", True)
         self.implement_width = p("implement_width", 0.0)
         self.teach_min_distance = p("teach.min_distance", 3.0)
@@ -70,8 +72,8 @@ class SteeringNode(Node):
         if self.line_frame == "map" and self.line_a != self.line_b:
             self._set_line(GuidanceLine.from_points(self.line_a, self.line_b), "parameters")
 
-        self.state_pub = self.create_publisher(GuidanceState, "/guidance/state", SENSOR_QOS)
-        self.cmd_pub = self.create_publisher(SteeringCommand, "/steering/command", SENSOR_QOS)
+        self.state_pub = self.create_publisher(GuidanceState, "/guidance/state", PUBLISHER_QOS)
+        self.cmd_pub = self.create_publisher(SteeringCommand, "/steering/command", PUBLISHER_QOS)
         self.create_subscription(Odometry, "/odometry/filtered", self._on_odometry, SENSOR_QOS)
         self.create_subscription(NavSatFix, "/map_datum", self._on_datum, LATCHED_QOS)
         self.create_service(Trigger, "steering/set_line_here", self._srv_set_line_here)

@@ -13,6 +13,8 @@ class WatchdogSettings:
     min_speed: float = 0.2           # m/s
     panic_deceleration: float = 3.0  # m/s^2 over decel_window
     decel_window: float = 0.3        # s
+    engage_position_std: float = 0.05  # m, stricter gates for an engage request: the fusion has converged
+    engage_yaw_std: float = 0.01       # rad
 
 
 @dataclass(frozen=True)
@@ -43,11 +45,13 @@ class Watchdog:
         self.fault = "no odometry yet"
         self.transitions: list[Transition] = []
         self._last_time = None
+        self._last_sample = None
         self._speeds = deque()  # (t, speed) over decel_window
 
     def odometry(self, now: float, sample: OdometrySample) -> str | None:
         """Record a message received at `now` (s); returns the fault it shows, or None when healthy."""
         self.fault = self._assess(now, sample)
+        self._last_sample = sample
         if self.fault is None or not self.fault.startswith("non-finite"):
             self._last_time = now
         self._disengage_on_fault(now)
@@ -67,6 +71,10 @@ class Watchdog:
         self.check(now)
         if self.fault is not None:
             return False, f"refused: {self.fault}"
+        s, m = self.settings, self._last_sample
+        if not self.engaged and (m.position_var > s.engage_position_std**2 or m.yaw_var > s.engage_yaw_std**2):
+            return False, (f"refused: not converged (position std {math.sqrt(m.position_var):.3f} m, "
+                           f"yaw std {math.sqrt(m.yaw_var):.4f} rad)")
         if not self.engaged:
             self._set(now, True, "engage requested")
         return True, "engaged"

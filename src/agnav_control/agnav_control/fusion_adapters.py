@@ -1,0 +1,119 @@
+"""The fusion graph offline: TractorSimulator samples fed to agnav_fusion's public cores exactly as their nodes
+feed them (never truth), reduced to what the steering node reads. RTK runs: NavSensorModule (nav_sensor_module_node,
+SPEC §6.3) on /imu/data_raw + /inclinometer + /gnss/fix; GDS runs: the variable-target VWA (SPEC §3.6) on the gyro,
+fluxgate and attitude samples."""
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from agnav_common.frames import rotation_matrix
+from agnav_common.geodesy import LocalTangentPlane
+from agnav_drivers.sim.messages import START_EPOCH_S
+from agnav_fusion.attitude_kf import AttitudeKFSettings
+from agnav_fusion.gds_heading import magnetic_heading, tilt_compensate
+from agnav_fusion.gds_drift_lsm import Unwrapper
+from agnav_fusion.nav_ekf import NavEKFSettings
+from agnav_fusion.nav_sensor_module import NavSensorModule, NavSensorModuleSettings
+from agnav_fusion.variance_weighted_average import VariableTargetVwa, VwaSettings
+
+from .watchdog import OdometrySample
+
+
+@dataclass
+class Pose:
+    """One /odometry/filtered reduced to the controller's needs (map ENU, REP-103 yaw), at stamp t."""
+
+    t: float
+    sample: OdometrySample
+
+
+def rtk_fog_settings(lever_flu, incl_lever_flu, imu_rate_hz: float) -> NavSensorModuleSettings:
+    """NavSensorModule settings for the RTK + FOG-IMU sensor set (R4-7/8): the FOG IMU's roll/pitch output on
+    /inclinometer has no lag and is not fooled by acceleration, the yaw gyro is FOG-grade. The GNSS course
+    initialises the heading only near full speed: the module removes the lever-arm velocity with the raw rate of
+    one sample, and a FOG's differentiated angle noise (~8 deg/s per 100 Hz sample) times the 3.6 m arm is ~0.5 m/s.
+    These are the nav_sensor_module_node parameters of config/steer.yaml."""
+    attitude = AttitudeKFSettings(tau=1.0 / imu_rate_hz, gyro_noise=5e-4, bias_walk=1e-5, incl_noise=2e-3)
+    return NavSensorModuleSettings(
+        estimator="agnav", lever_flu=tuple(lever_flu), incl_lever_flu=tuple(incl_lever_flu),
+        roll_kf=attitude, pitch_kf=attitude, accel_compensation=False, heading_init_speed=3.0,
+        ekf=NavEKFSettings(rate_noise=5e-4, bias_walk=2e-5))
+
+
+class NsmEstimator:
+    """NavSensorModule fed like nav_sensor_module_node: gyro rotated into base_link, GNSS in the datum's ENU,
+    stamps on the simulator's wall epoch. tilt=False: a level attitude source and a yaw-only gyro (the lever arm
+    corrected at zero tilt: the thesis' uncorrected run)."""
+
+    def __init__(self, scenario, tilt: bool = True, settings: NavSensorModuleSettings | None = None):
+        (gnss_xyz, _), (incl_xyz, _) = scenario.mounts["gnss_link"], scenario.mounts["inclinometer_link"]
+        self.nsm = NavSensorModule(settings or rtk_fog_settings(gnss_xyz, incl_xyz, scenario.imu_rate_hz))
+        self.imu_rotation = rotation_matrix(*scenario.mounts["imu_link"][1])
+        self.plane = LocalTangentPlane(*scenario.datum)
+        self.tilt = tilt
+
+    def feed(self, kind: str, stamp: float, data: dict):
+        t = START_EPOCH_S + stamp
+        if kind == "incl":
+            self.nsm.inclinometer(t, *((data["roll"], data["pitch"]) if self.tilt else (0.0, 0.0)))
+        elif kind == "imu":
+            gyro = self.imu_rotation @ np.asarray(data["gyro"], dtype=float)
+            self.nsm.imu(t, gyro if self.tilt else gyro * (0.0, 0.0, 1.0))
+        elif kind == "gnss":
+            enu = self.plane.to_enu(data["lat"], data["lon"], data["alt"])
+            self.nsm.gnss(t, np.array(enu, dtype=float), np.asarray(data["cov"]), np.asarray(data["vel"]))
+
+    def pose(self) -> Pose | None:
+        """The latest output once heading and position are valid (what the steering node engages on)."""
+        s = self.nsm.state()
+        if s is None or not (s.heading_valid and s.position_valid):
+            return None
+        c = s.pose_cov
+        return Pose(s.t - START_EPOCH_S, OdometrySample(float(s.position[0]), float(s.position[1]), float(s.rpy[2]),
+                                                        float(s.speed), max(c[0, 0], c[1, 1]), c[5, 5]))
+
+
+@dataclass
+class GdsSettings:
+    vwa: VwaSettings = field(default_factory=VwaSettings)   # Table 2.5: T 10 s, ΔT 2 s
+    speed: float = 0.5        # m/s: the GDS system has no odometer; (2.7) runs at the nominal speed
+
+
+class GdsVwaEstimator:
+    """The thesis GDS system (SPEC §3.6): tilt-compensated GDS heading (hard iron left in: a constant offset on a
+    straight run that the variable target cancels) and the integrated gyro through agnav_fusion's
+    VariableTargetVwa, giving the deviation Δφ (2.52) from the moving target. The pose is expressed with the target
+    along target_yaw: yaw = target_yaw - Δφ, position dead-reckoned at the nominal speed, so that the cross-track
+    to a line along target_yaw is -ε of (2.7)."""
+
+    def __init__(self, scenario, target_yaw: float, settings: GdsSettings | None = None):
+        self.settings = s = settings or GdsSettings()
+        self.vwa = VariableTargetVwa(s.vwa)
+        self.target_yaw = target_yaw
+        self.roll = self.pitch = 0.0
+        self.gyro_heading = 0.0   # thesis heading from the integrated clockwise rate
+        self.gds = Unwrapper()
+        self.t = None
+        self.yaw = None
+        self.xy = np.zeros(2)
+
+    def feed(self, kind: str, stamp: float, data: dict):
+        if kind == "incl":
+            self.roll, self.pitch = data["roll"], data["pitch"]
+        elif kind == "mag":
+            self.gds(float(magnetic_heading(tilt_compensate(data["field"], self.roll, -self.pitch))))
+        elif kind == "imu":
+            g = data["gyro"]
+            rate = (math.sin(self.roll) * g[1] + math.cos(self.roll) * g[2]) / math.cos(self.pitch)  # ENU yaw rate
+            dt = 0.0 if self.t is None else stamp - self.t
+            self.t = stamp
+            self.gyro_heading -= rate * dt
+            out = None if self.gds.value is None else self.vwa.update(stamp, self.gds.value, self.gyro_heading)
+            if out is not None:
+                self.yaw = self.target_yaw - out[0]
+                self.xy += self.settings.speed * dt * np.array([math.cos(self.yaw), math.sin(self.yaw)])
+
+    def pose(self) -> Pose | None:
+        if self.yaw is None:
+            return None
+        return Pose(self.t, OdometrySample(self.xy[0], self.xy[1], self.yaw, self.settings.speed, 0.0, 0.0))
