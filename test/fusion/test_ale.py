@@ -50,3 +50,13 @@ def test_two_pass_is_at_least_as_good_as_one_pass():
     e2 = _rms_error(y2, clean, ale.delay_samples())
     assert e2 <= e1 * 1.05
     assert e2 < _rms_error(u, clean, 0) / 3.0
+
+
+def test_more_taps_trade_delay_for_noise():
+    """The bench's N = 75 (thesis: 50): lower delay-aligned error on a slow tilt in white noise, longer delay."""
+    clean, u = _sine_in_noise(seed=5, sigma=0.6)
+    clean = 3.0 + 0.5 * (clean - 3.0)          # slow ±1° tilt, 0.6° noise as the simulated AccuStar
+    u = clean + (u - _sine_in_noise(seed=5, sigma=0.6)[0])
+    (y50, a50), (y75, a75) = two_pass(u, AleSettings(n_taps=50)), two_pass(u, AleSettings(n_taps=75))
+    assert a75.delay_samples() > a50.delay_samples()
+    assert _rms_error(y75, clean, a75.delay_samples()) < _rms_error(y50, clean, a50.delay_samples())
