@@ -84,8 +84,7 @@ def signals(scenario, seed, **overrides) -> Signals:
 
 def gds_heading(s: Signals, roll=None, pitch=None, delay=0):
     """Unwrapped true GDS heading; tilt from (roll, pitch) (default: the inclinometer), field delayed by `delay`."""
-    field = s.field if delay == 0 else np.concatenate([np.repeat(s.field[:1], delay, 0), s.field[:-delay]])
-    tilt = tilt_compensate(field, s.roll if roll is None else roll, s.pitch if pitch is None else pitch)
+    tilt = tilt_compensate(_delayed(s.field, delay), s.roll if roll is None else roll, s.pitch if pitch is None else pitch)
     return np.unwrap(magnetic_heading(tilt) + s.declination)
 
 
@@ -157,7 +156,7 @@ def kf_rows(seed):
 
 def _delayed(x, n):
     """x delayed by n samples (the first sample repeated)."""
-    return np.concatenate([np.repeat(x[:1], n), x[:-n]]) if n else x
+    return np.concatenate([np.repeat(x[:1], n, axis=0), x[:-n]]) if n else x
 
 
 def _cruise(s: Signals, margin_s=3.0):
