@@ -57,6 +57,15 @@ def static_transform_node(config):
     return node
 
 
+def drained(recorder, quiet):
+    """True once the graph has been quiet (nothing recorded) for `quiet` seconds after the replay ended."""
+    if recorder is None:
+        return True
+    if recorder.last_write is None or time.monotonic() - recorder.last_write < quiet:
+        return False
+    return True
+
+
 def params_of(spec, use_sim_time):
     params = dict(spec.parameters)
     params["use_sim_time"] = use_sim_time
@@ -147,7 +156,6 @@ def run(args):
         for node in nodes:
             executor.add_node(node)
         started = time.monotonic()
-        finished_at = None
         print(f"agnav run: {config.path.name}: {len(config.nodes)} node(s)"
               f"{' as processes' if args.processes else ''}"
               f"{f', replaying {bag}' if bag else ''}{f', recording {record}' if record else ''}", flush=True)
@@ -158,10 +166,8 @@ def run(args):
                 break
             if args.duration and time.monotonic() - started > args.duration:
                 break
-            if player is not None and player.finished:
-                finished_at = finished_at or time.monotonic()
-                if time.monotonic() - finished_at > (1.0 if args.processes else 0.3):  # let the graph drain
-                    break
+            if player is not None and player.finished and drained(recorder, quiet=2.0 if args.processes else 0.3):
+                break
     except KeyboardInterrupt:
         stopping.append("SIGINT")
     except Exception as exc:  # a node raised: report and exit non-zero

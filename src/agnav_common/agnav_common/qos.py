@@ -1,8 +1,11 @@
 """QoS profiles shared by every agnav node."""
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
-# Sensor streams: reliable so that replay at any rate loses nothing; depth covers 1 s at 100 Hz.
-SENSOR_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=100, reliability=ReliabilityPolicy.RELIABLE)
+# Sensor-stream subscriptions: reliable, keep-all: every sample stays queued until the callback takes it, so a
+# node in another process that falls behind a replay loses nothing (the player waits for acknowledgements).
+SENSOR_QOS = QoSProfile(history=HistoryPolicy.KEEP_ALL, reliability=ReliabilityPolicy.RELIABLE)
+# Sensor-stream publishers: reliable, keep-last 100 (1 s at 100 Hz): publish() never blocks a driver or filter.
+PUBLISHER_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=100, reliability=ReliabilityPolicy.RELIABLE)
 # Latched topics (/tf_static, /map_datum): late joiners get the last message.
 LATCHED_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1, reliability=ReliabilityPolicy.RELIABLE,
                          durability=DurabilityPolicy.TRANSIENT_LOCAL)

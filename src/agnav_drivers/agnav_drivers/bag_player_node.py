@@ -1,15 +1,18 @@
 """Bag player: replays a rosbag2/ROS 1 bag with its timing (scaled by `rate`) or as fast as possible.
 
 rate > 0 keeps the bag's timing scaled by rate; rate 0 publishes as fast as the graph consumes: at most
-`window` messages ahead of what this node's own probe subscriptions have received. In one process with
-the EventsExecutor (FIFO events) that means every earlier message has been handled by every node.
+`window` messages ahead of what this node's own probe subscriptions have received (in one process with the
+EventsExecutor's FIFO events, every earlier message has then been handled by every node), and a message
+that a lagging subscriber in another process cannot take yet is held and retried (see REPLAY_QOS), so a slow
+node slows the replay instead of losing data.
 Publishes /clock from the bag timeline (a recorded /clock is not replayed) and /tf_static transient-local.
 """
 import sys
 import time
 
+from rclpy._rclpy_pybind11 import RCLError
 from rclpy.node import Node
-from rclpy.qos import QoSProfile
+from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rosgraph_msgs.msg import Clock
 
 from agnav_common.diagnostics import OK, WARN, Diagnostics
@@ -20,6 +23,9 @@ from agnav_drivers.bag_source import BagSource
 from agnav_drivers.ros_types import message_class
 
 LATCHED_TOPICS = ("/tf_static", "/map_datum")
+# Keep-all writer: while a subscriber (keep-all, SENSOR_QOS) lags, its unacknowledged samples fill the writer's
+# history and publish() fails; the player then holds the message and retries instead of dropping it.
+REPLAY_QOS = QoSProfile(history=HistoryPolicy.KEEP_ALL, reliability=ReliabilityPolicy.RELIABLE)
 
 
 class BagPlayerNode(Node):
@@ -42,6 +48,7 @@ class BagPlayerNode(Node):
         self.skipped = {}
         self.published = 0
         self.received = 0
+        self.retries = 0
         for topic, msgtype in self.source.topics.items():
             if topic == "/clock":
                 continue
@@ -52,10 +59,10 @@ class BagPlayerNode(Node):
                 self.get_logger().warning(f"{topic}: type {msgtype} is not installed here; not replayed")
                 continue
             out = remap.get(topic, topic)
-            qos = LATCHED_QOS if topic in LATCHED_TOPICS else SENSOR_QOS
+            qos = LATCHED_QOS if topic in LATCHED_TOPICS else REPLAY_QOS
             self.publishers_[topic] = self.create_publisher(cls, out, qos)
             if self.rate == 0.0:  # probes: count what the graph has received
-                self.create_subscription(cls, out, self._on_probe, QoSProfile(depth=1000), raw=True)
+                self.create_subscription(cls, out, self._on_probe, SENSOR_QOS, raw=True)
         self.clock_pub = self.create_publisher(Clock, "/clock", 10) if p["clock"] else None
         self.finished = False
         self._iter = None
@@ -78,7 +85,7 @@ class BagPlayerNode(Node):
     def _diagnose(self):
         level = WARN if self.skipped else OK
         return level, "finished" if self.finished else "playing", {
-            "published": self.published, "skipped_topics": ",".join(self.skipped) or "none"}
+            "published": self.published, "retries": self.retries, "skipped_topics": ",".join(self.skipped) or "none"}
 
     def _restart(self):
         self._iter = iter(self.source)
@@ -112,18 +119,26 @@ class BagPlayerNode(Node):
             if self.rate > 0.0 and (msg.stamp_ns - self._t0) / 1e9 / self.rate > time.monotonic() - self._start_wall:
                 self._pending = msg
                 break
-            self._publish(msg)
+            if not self._publish(msg):
+                self._pending = msg  # a subscriber lags: retry on the next tick
+                break
             budget -= 1
         self._show_progress()
 
     def _publish(self, msg):
+        """Publish one bag message (and /clock); False when the writer is full and it must be retried."""
         if self.clock_pub is not None and msg.stamp_ns > self._last_clock:
             self._last_clock = msg.stamp_ns
             self.clock_pub.publish(Clock(clock=to_stamp(msg.stamp_ns * 1e-9)))
         pub = self.publishers_.get(msg.topic)
         if pub is not None:
-            pub.publish(msg.data)
+            try:
+                pub.publish(msg.data)
+            except RCLError:
+                self.retries += 1
+                return False
             self.published += 1
+        return True
 
     def _show_progress(self, final=False):
         now = time.monotonic()

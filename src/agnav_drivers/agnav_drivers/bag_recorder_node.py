@@ -3,11 +3,12 @@
 Messages are stored raw with their message definitions (Foxglove and `ros2 bag` open the result),
 time-stamped with the node clock (bag time under use_sim_time). Topics appearing later are picked up.
 """
+import time
 from pathlib import Path
 
 from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
-from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rosbags.rosbag2 import StoragePlugin, Writer
 
 from agnav_common.bagio import typestore
@@ -32,6 +33,7 @@ class BagRecorderNode(Node):
         self.connections = {}
         self.counts = {}
         self.closed = False
+        self.last_write = None  # monotonic time of the last message written (drain detection)
         self._early = []  # messages received before the (sim) clock started, written at its first tick
         self._discover()
         self.create_timer(0.2, self._discover, clock=Clock(clock_type=ClockType.STEADY_TIME))  # not sim time
@@ -57,7 +59,7 @@ class BagRecorderNode(Node):
     def _qos_for(self, topic):
         """Subscription QoS compatible with every publisher: reliable/latched only if all offer it."""
         offered = [info.qos_profile for info in self.get_publishers_info_by_topic(topic)]
-        qos = QoSProfile(depth=1000)
+        qos = QoSProfile(history=HistoryPolicy.KEEP_ALL)
         if offered and any(q.reliability == ReliabilityPolicy.BEST_EFFORT for q in offered):
             qos.reliability = ReliabilityPolicy.BEST_EFFORT
         if offered and all(q.durability == DurabilityPolicy.TRANSIENT_LOCAL for q in offered):
@@ -77,6 +79,8 @@ class BagRecorderNode(Node):
         self._early.clear()
         self.writer.write(self.connections[topic], now, data)
         self.counts[topic] += 1
+        if topic != "/diagnostics":
+            self.last_write = time.monotonic()
 
     def close(self):
         """Finish the bag file (also done on node destruction)."""
