@@ -8,7 +8,7 @@ from rosgraph_msgs.msg import Clock
 
 from agnav_common.diagnostics import OK, WARN, Diagnostics
 from agnav_common.node_main import main_for
-from agnav_common.qos import LATCHED_QOS, SENSOR_QOS
+from agnav_common.qos import LATCHED_QOS, PUBLISHER_QOS, SENSOR_QOS
 from agnav_common.stamps import to_stamp
 from agnav_msgs.msg import SteeringCommand
 
@@ -40,7 +40,7 @@ class TractorSimNode(Node):
         self.timeout = float(gp("command_timeout_s").value)
         self.exit_when_done = bool(gp("exit_when_done").value)
         self.pubs = {topic: self.create_publisher(message_class(kind), topic,
-                                                  LATCHED_QOS if topic in LATCHED_TOPICS else SENSOR_QOS)
+                                                  LATCHED_QOS if topic in LATCHED_TOPICS else PUBLISHER_QOS)
                      for topic, kind in TOPIC_TYPES.items()}
         self.clock_pub = self.create_publisher(Clock, "/clock", 10)
         self.create_subscription(SteeringCommand, "/steering/command", self._on_command, SENSOR_QOS)

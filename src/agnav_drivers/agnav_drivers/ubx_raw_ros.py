@@ -2,7 +2,7 @@
 /gnss/nav_data (agnav_msgs GnssObservations / GnssNavData), for tightly coupled GNSS/INS."""
 from __future__ import annotations
 
-from agnav_common.qos import SENSOR_QOS
+from agnav_common.qos import PUBLISHER_QOS
 
 from .ubx import GnssObservations, NavDataFrame
 
@@ -15,8 +15,8 @@ WEEK = 604800.0
 class RawPublishers:
     def __init__(self, node):
         self.node = node
-        self.obs = node.create_publisher(GnssObservationsMsg, "/gnss/raw_observations", SENSOR_QOS)
-        self.nav = node.create_publisher(GnssNavData, "/gnss/nav_data", SENSOR_QOS)
+        self.obs = node.create_publisher(GnssObservationsMsg, "/gnss/raw_observations", PUBLISHER_QOS)
+        self.nav = node.create_publisher(GnssNavData, "/gnss/nav_data", PUBLISHER_QOS)
 
     def publish(self, event) -> int:
         if isinstance(event, GnssObservations):

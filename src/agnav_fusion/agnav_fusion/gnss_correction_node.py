@@ -10,7 +10,7 @@ from agnav_common.diagnostics import OK, WARN, Diagnostics
 from agnav_common.frames import euler_from_quaternion, heading_from_yaw
 from agnav_common.geodesy import LocalTangentPlane
 from agnav_common.node_main import main_for
-from agnav_common.qos import SENSOR_QOS
+from agnav_common.qos import PUBLISHER_QOS, SENSOR_QOS
 from agnav_common.stamps import StampGuard, to_sec
 from agnav_common.tf import TfBuffer
 from nav_msgs.msg import Odometry
@@ -31,7 +31,7 @@ class GnssCorrectionNode(Node):
         self.attitudes = deque(maxlen=400)  # (t, heading, pitch nose-up, roll, variances) thesis conventions
         self.guard = StampGuard()
         self.counts = {"corrected": 0, "bad_value": 0, "bad_stamp": 0, "no_attitude": 0, "no_tf": 0}
-        self.pub = self.create_publisher(NavSatFix, "/gnss/fix_corrected", SENSOR_QOS)
+        self.pub = self.create_publisher(NavSatFix, "/gnss/fix_corrected", PUBLISHER_QOS)
         self.create_subscription(NavSatFix, "/gnss/fix", self.on_fix, SENSOR_QOS)
         self.create_subscription(Odometry, "/odometry/filtered", self.on_odom, SENSOR_QOS)
         Diagnostics(self, "gnss_correction").add("inputs", lambda: (

@@ -22,7 +22,7 @@ from agnav_common.diagnostics import ERROR, OK, WARN, Diagnostics
 from agnav_common.frames import euler_from_quaternion, quaternion_from_euler, yaw_from_heading
 from agnav_common.geodesy import LocalTangentPlane
 from agnav_common.node_main import main_for
-from agnav_common.qos import SENSOR_QOS
+from agnav_common.qos import PUBLISHER_QOS, SENSOR_QOS
 from agnav_common.stamps import StampGuard, to_sec, to_stamp
 from agnav_common.tf import TfBuffer
 from agnav_msgs.msg import Inclination
@@ -91,7 +91,7 @@ class HeadingNode(Node):
         self._rates = np.zeros(3)
         self.tf = TfBuffer(self)
 
-        self.pub = self.create_publisher(Imu, "/heading/imu", SENSOR_QOS)
+        self.pub = self.create_publisher(Imu, "/heading/imu", PUBLISHER_QOS)
         self.create_subscription(Imu, "/imu/data_raw", self._on_gyro, SENSOR_QOS)
         self.create_subscription(MagneticField, "/imu/mag", self._on_mag, SENSOR_QOS)
         self.create_subscription(NavSatFix, "/gnss/fix", self._on_fix, SENSOR_QOS)

@@ -22,7 +22,7 @@ from rclpy.experimental import EventsExecutor  # noqa: E402
 from sensor_msgs.msg import Imu  # noqa: E402
 
 from agnav_bringup.graph_config import REPO_ROOT, load_config  # noqa: E402
-from agnav_common.qos import SENSOR_QOS  # noqa: E402
+from agnav_common.qos import PUBLISHER_QOS, SENSOR_QOS  # noqa: E402
 from agnav_common.stamps import to_sec, to_stamp  # noqa: E402
 from agnav_drivers.bag_source import BagSource  # noqa: E402
 
@@ -32,7 +32,7 @@ DOC = REPO_ROOT / "docs" / "benchmarks" / "foundation.md"
 
 def source_node(count):
     node = rclpy.create_node("latency_source")
-    pub = node.create_publisher(Imu, "/imu/data_raw", SENSOR_QOS)
+    pub = node.create_publisher(Imu, "/imu/data_raw", PUBLISHER_QOS)
     sent = []
 
     def tick():
