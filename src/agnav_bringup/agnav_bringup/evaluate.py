@@ -31,6 +31,24 @@ def _interp_angle(t, tq, a):
     return wrap_angle(np.interp(tq, t, np.unwrap(a)))
 
 
+def error_series(est, truth, skip_s=0.0):
+    """Per-sample errors at the estimate's stamps inside the truth's span (after `skip_s` seconds):
+    t, roll/pitch/yaw (deg) and east/north/cross-track (cm) for the quantities both sides have."""
+    t_true, t = np.asarray(truth["t"], dtype=float), np.asarray(est["t"], dtype=float)
+    keep = (t >= t_true[0] + skip_s) & (t <= t_true[-1])
+    tq = t[keep]
+    series = {"t": tq}
+    for key in ("roll", "pitch", "yaw"):
+        if key in est and key in truth:
+            series[key] = wrap_angle(np.asarray(est[key])[keep] - _interp_angle(t_true, tq, truth[key])) * DEG
+    if "x" in est and "x" in truth:
+        dx = np.asarray(est["x"])[keep] - np.interp(tq, t_true, truth["x"])
+        dy = np.asarray(est["y"])[keep] - np.interp(tq, t_true, truth["y"])
+        yaw = _interp_angle(t_true, tq, truth["yaw"])
+        series.update(east=dx * 100, north=dy * 100, cross_track=(-np.sin(yaw) * dx + np.cos(yaw) * dy) * 100)
+    return series
+
+
 def evaluate_arrays(est, truth, skip_s=0.0):
     """Error statistics of an estimate against truth; both dicts of arrays with key t (s) and any of
     x, y (m, same map frame), roll, pitch, yaw (rad). Truth needs t, yaw and the keys being scored.
@@ -38,41 +56,18 @@ def evaluate_arrays(est, truth, skip_s=0.0):
     Returns {roll_deg, pitch_deg, yaw_deg, horizontal_cm, cross_track_cm: {rms, max}, samples, duration_s};
     quantities the estimate lacks get {rms: None, max: None}. skip_s drops the first seconds (convergence).
     """
-    t_true = np.asarray(truth["t"], dtype=float)
-    t = np.asarray(est["t"], dtype=float)
-    keep = (t >= t_true[0] + skip_s) & (t <= t_true[-1])
-    tq = t[keep]
+    series = error_series(est, truth, skip_s)
     out = {k: {"rms": None, "max": None} for k in KEYS}
     for key in ("roll", "pitch", "yaw"):
-        if key in est and key in truth:
-            err = wrap_angle(np.asarray(est[key])[keep] - _interp_angle(t_true, tq, truth[key]))
-            out[f"{key}_deg"] = _stats(np.atleast_1d(err) * DEG)
-    if "x" in est and "x" in truth:
-        dx = np.asarray(est["x"])[keep] - np.interp(tq, t_true, truth["x"])
-        dy = np.asarray(est["y"])[keep] - np.interp(tq, t_true, truth["y"])
-        yaw = _interp_angle(t_true, tq, truth["yaw"])
-        out["horizontal_cm"] = _stats(np.hypot(dx, dy) * 100)
-        out["cross_track_cm"] = _stats((-np.sin(yaw) * dx + np.cos(yaw) * dy) * 100)
+        if key in series:
+            out[f"{key}_deg"] = _stats(np.atleast_1d(series[key]))
+    if "east" in series:
+        out["horizontal_cm"] = _stats(np.hypot(series["east"], series["north"]))
+        out["cross_track_cm"] = _stats(series["cross_track"])
+    tq = series["t"]
     out["samples"] = int(tq.size)
     out["duration_s"] = float(tq[-1] - tq[0]) if tq.size else 0.0
     return out
-
-
-def error_series(est, truth):
-    """Per-sample errors for plots: t, roll/pitch/yaw (deg), east/north/cross-track (cm) where available."""
-    t_true, t = np.asarray(truth["t"]), np.asarray(est["t"])
-    keep = (t >= t_true[0]) & (t <= t_true[-1])
-    tq = t[keep]
-    series = {"t": tq}
-    for key in ("roll", "pitch", "yaw"):
-        if key in est:
-            series[key] = wrap_angle(np.asarray(est[key])[keep] - _interp_angle(t_true, tq, truth[key])) * DEG
-    if "x" in est:
-        dx = np.asarray(est["x"])[keep] - np.interp(tq, t_true, truth["x"])
-        dy = np.asarray(est["y"])[keep] - np.interp(tq, t_true, truth["y"])
-        yaw = _interp_angle(t_true, tq, truth["yaw"])
-        series.update(east=dx * 100, north=dy * 100, cross_track=(-np.sin(yaw) * dx + np.cos(yaw) * dy) * 100)
-    return series
 
 
 def read_bag(path, topics):
