@@ -27,6 +27,7 @@ setup(
             "ubx_gnss_node = agnav_drivers.ubx_gnss_node:main",
             "adc_sensor_node = agnav_drivers.adc_sensor_node:main",
             "tractor_sim = agnav_drivers.sim_node:main",
+            "agnav_csv_import = agnav_drivers.csv_import:main",
         ],
     },
 )

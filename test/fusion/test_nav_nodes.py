@@ -94,3 +94,13 @@ def test_attitude_node_publishes_level_orientation(ros):
     assert abs(q.x) < 0.01 and abs(q.y) < 0.01
     assert 0 < msgs[-1].orientation_covariance[0] < 1e-3
     node.destroy_node()
+
+
+def test_accelerometer_tilt_recovers_a_known_attitude():
+    from agnav_common.frames import rotation_matrix
+
+    from agnav_fusion.nav_sensor_module_node import accelerometer_tilt
+
+    for roll, pitch in ((0.1, -0.2), (-0.3, 0.05), (0.0, 0.0)):
+        f = rotation_matrix(roll, pitch, 1.0).T @ np.array([0.0, 0.0, 9.81])  # specific force at rest, FLU
+        assert np.allclose(accelerometer_tilt(f), (roll, pitch), atol=1e-12)
