@@ -25,6 +25,7 @@ setup(
             "attitude_node = agnav_fusion.attitude_node:main",
             "gnss_correction_node = agnav_fusion.gnss_correction_node:main",
             "nav_sensor_module_node = agnav_fusion.nav_sensor_module_node:main",
+            "ins_node = agnav_fusion.ins_node:main",
         ],
     },
 )

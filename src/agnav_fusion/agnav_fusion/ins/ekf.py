@@ -60,6 +60,7 @@ class NavSolution:
     pos_cov_enu: np.ndarray
     vel_cov_enu: np.ndarray
     att_var: np.ndarray          # roll, pitch, heading [rad^2]
+    gyro_bias_var: np.ndarray    # FRD gyro bias estimate variances [(rad/s)^2]
 
 
 class InsEkf:
@@ -153,7 +154,7 @@ class InsEkf:
         tilt = 0.5 * (self.p[em.TX, em.TX] + self.p[em.TY, em.TY])
         return NavSolution(self.t, st.lat, st.lon, st.h, st.v_ned(), roll, pitch, heading, self.omega_b.copy(),
                            st.c_b_ned(), pos, m @ self.p[np.ix_(iv, iv)] @ m.T,
-                           np.array([tilt, tilt, self.p[em.GAMMA, em.GAMMA]]))
+                           np.array([tilt, tilt, self.p[em.GAMMA, em.GAMMA]]), np.diag(self.p)[em.BG].copy())
 
     def augment(self, p_new, p_cross=None):
         """Append error states (e.g. ambiguities, clock drift for tight coupling, §7.9) with their covariance."""

@@ -1,0 +1,66 @@
+"""REP-103 edge of the INS: sensor mounts into the FRD body (= base_link axes) and the base_link output state.
+
+The INS body frame B is base_link with FRD axes; the IMU point (origin of the mechanization) is the
+imu_link origin. Mount translations and rotations come from TF (base_link -> imu_link / gnss_link).
+"""
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from agnav_common.frames import wrap_angle
+
+from .lever_arm import imu_to_point_position
+from .measurements import ENU_TO_NED
+
+FLU_TO_FRD = np.diag([1.0, -1.0, -1.0])
+
+
+@dataclass
+class Mounts:
+    """imu_link (FLU) -> body FRD rotation, IMU -> antenna and base_link -> IMU levers in body FRD [m]."""
+
+    imu_to_frd: np.ndarray
+    lever_gnss_frd: np.ndarray
+    lever_imu_frd: np.ndarray
+
+    @classmethod
+    def from_tf(cls, imu_xyz, imu_rotation, gnss_xyz):
+        """From base_link->imu_link (translation, 3x3 rotation imu_link->base_link) and base_link->gnss_link."""
+        lever_imu = FLU_TO_FRD @ np.asarray(imu_xyz, dtype=float)
+        return cls(FLU_TO_FRD @ np.asarray(imu_rotation, dtype=float),
+                   FLU_TO_FRD @ np.asarray(gnss_xyz, dtype=float) - lever_imu, lever_imu)
+
+
+@dataclass
+class BaseLinkState:
+    """base_link in the map ENU plane (REP-103): pose, body FLU twist, 6x6 covariances."""
+
+    t: float
+    position: np.ndarray      # map ENU [m]
+    rpy: np.ndarray           # roll, pitch (nose down), yaw (CCW from east) [rad]
+    pose_cov: np.ndarray      # x, y, z, roll, pitch, yaw
+    velocity: np.ndarray      # base_link FLU [m/s]
+    rates: np.ndarray         # bias-corrected body rates, FLU [rad/s]
+    twist_cov: np.ndarray     # vx, vy, vz, wx, wy, wz
+
+    def finite(self):
+        return all(np.all(np.isfinite(a)) for a in (self.position, self.rpy, self.pose_cov, self.velocity,
+                                                     self.rates, self.twist_cov))
+
+
+def base_link_state(sol, mounts, plane, rate_var=(0.0, 0.0, 0.0)):
+    """BaseLinkState from an IMU-point NavSolution: moved to base_link by the mount (5-5-3, ω x l), attitude and
+    covariances rotated to REP-103. plane: agnav_common LocalTangentPlane; rate_var: gyro white-noise variance."""
+    lat, lon, h = imu_to_point_position(sol.lat, sol.lon, sol.h, -mounts.lever_imu_frd, sol.c_b_ned)
+    position = np.array(plane.to_enu(math.degrees(lat), math.degrees(lon), h), dtype=float)
+    r_body_enu = ENU_TO_NED.T @ sol.c_b_ned @ FLU_TO_FRD          # base_link FLU -> ENU
+    v_ned = sol.v_ned + sol.c_b_ned @ np.cross(sol.omega_b, -mounts.lever_imu_frd)
+    pose_cov = np.zeros((6, 6))
+    pose_cov[:3, :3] = sol.pos_cov_enu
+    pose_cov[3:, 3:] = np.diag(sol.att_var)
+    twist_cov = np.zeros((6, 6))
+    twist_cov[:3, :3] = r_body_enu.T @ sol.vel_cov_enu @ r_body_enu
+    twist_cov[3:, 3:] = np.diag(sol.gyro_bias_var + np.asarray(rate_var, dtype=float))
+    return BaseLinkState(sol.t, position, np.array([sol.roll, -sol.pitch, wrap_angle(math.pi / 2 - sol.heading)]),
+                         pose_cov, r_body_enu.T @ (ENU_TO_NED.T @ v_ned), FLU_TO_FRD @ sol.omega_b, twist_cov)

@@ -1,0 +1,246 @@
+"""GNSS/INS node (SPEC §7, loosely coupled): /imu/data_raw (gyro + accelerometer) + /gnss/fix + /gnss/vel
+(+ /gnss/status) -> /odometry/filtered at the IMU rate (frame map, child base_link, pose + twist covariance from the
+EKF), /imu/data (attitude + covariance, bias-corrected rates), TF map->odom->base_link (odom = map), /map_datum.
+
+The wander-azimuth strapdown INS with the 16-state error EKF (`agnav_fusion.ins`) runs on the base_link axes at
+the imu_link origin; mounts come from TF (base_link->imu_link, base_link->gnss_link) and the filter starts once
+both are known. The heading may be unknown: the filter initialises when driving and aligns in motion. GNSS
+messages are stamped at their epoch and arrive late: the core applies them against its history. A fix and the
+/gnss/vel of the same epoch are fused together. Bad stamps and values are rejected, counted and reported.
+"""
+import dataclasses
+import math
+
+import numpy as np
+from agnav_common.diagnostics import ERROR, OK, WARN, Diagnostics
+from agnav_common.frames import quaternion_from_euler
+from agnav_common.geodesy import LocalTangentPlane
+from agnav_common.node_main import main_for
+from agnav_common.qos import LATCHED_QOS, PUBLISHER_QOS, SENSOR_QOS
+from agnav_common.stamps import StampGuard, to_sec, to_stamp
+from agnav_common.tf import TfBuffer, TransformBroadcaster, make_transform
+from agnav_msgs.msg import GnssStatus
+from geometry_msgs.msg import TwistWithCovarianceStamped
+from nav_msgs.msg import Odometry
+from rclpy.node import Node
+from scipy.spatial.transform import Rotation
+from sensor_msgs.msg import Imu, NavSatFix, NavSatStatus
+
+from agnav_fusion.ins import GnssSample, InsEkf, InsEkfSettings
+from agnav_fusion.ins.frames import Mounts, base_link_state
+
+EPOCH_MATCH_S = 0.005   # a /gnss/vel within this of a fix epoch belongs to it
+NOT_PARAMETERS = {"lever_gnss_frd", "initial_heading", "initial_heading_sigma"}  # from TF / REP-103 parameters
+
+
+def declare_ins_settings(node, obj, prefix=""):
+    """Declare every (nested) InsEkfSettings field as a parameter named by its path, SPEC/[IMPL] defaults."""
+    for f in dataclasses.fields(obj):
+        value = getattr(obj, f.name)
+        if f.name in NOT_PARAMETERS:
+            continue
+        if dataclasses.is_dataclass(value):
+            declare_ins_settings(node, value, f"{prefix}{f.name}.")
+        else:
+            setattr(obj, f.name, type(value)(node.declare_parameter(prefix + f.name, value).value))
+    return obj
+
+
+class InsNode(Node):
+    def __init__(self, **kwargs):
+        super().__init__("ins_node", **kwargs)
+        p = lambda n, d: self.declare_parameter(n, d).value  # noqa: E731
+        self.frames = {k: p(f"{k}_frame", d) for k, d in (("map", "map"), ("odom", "odom"), ("base", "base_link"),
+                                                           ("imu", "imu_link"), ("gnss", "gnss_link"))}
+        datum = p("datum", [0.0])           # [lat, lon, alt]; anything shorter: the first good fix
+        self.publish_tf = p("publish_tf", True)
+        initial_yaw = p("initial_yaw", 0.0)               # rad, REP-103 (CCW from east): best guess
+        initial_yaw_sigma = p("initial_yaw_sigma", 0.0)   # rad; <= 0: unknown heading (in-motion alignment)
+        self.gnss_timeout = p("gnss_timeout", 1.5)        # s without an accepted fix -> INS-only (outage) mode
+        self.default_fix_sigma = p("default_fix_sigma", 1.0)   # m, fixes without a covariance
+        self.default_vel_sigma = p("default_vel_sigma", 0.05)  # m/s, velocities without a covariance
+        self.settings = declare_ins_settings(self, InsEkfSettings())
+        self.settings.initial_heading = math.pi / 2 - initial_yaw
+        self.settings.initial_heading_sigma = initial_yaw_sigma if initial_yaw_sigma > 0 else math.inf
+        self.ekf = None
+        self.mounts = None
+        self.plane = None
+        self.pending_fix = None
+        self.velocities = []
+        self.fix_type = None
+        self.rate_var = np.zeros(3)
+        self.stamp_guards = {k: StampGuard() for k in ("imu", "fix", "vel")}
+        self.counters = {"imu": 0, "gnss": 0, "published": 0, "missing_tf": 0, "no_accel": 0, "no_fix": 0,
+                         "bad_fix": 0, "output_nan": 0}
+        self.tf = TfBuffer(self)
+        self.tf_out = TransformBroadcaster(self)
+        self.odom_pub = self.create_publisher(Odometry, "/odometry/filtered", PUBLISHER_QOS)
+        self.imu_pub = self.create_publisher(Imu, "/imu/data", PUBLISHER_QOS)
+        self.datum_pub = self.create_publisher(NavSatFix, "/map_datum", LATCHED_QOS)
+        self.create_subscription(Imu, "/imu/data_raw", self.on_imu, SENSOR_QOS)
+        self.create_subscription(NavSatFix, "/gnss/fix", self.on_fix, SENSOR_QOS)
+        self.create_subscription(TwistWithCovarianceStamped, "/gnss/vel", self.on_vel, SENSOR_QOS)
+        self.create_subscription(GnssStatus, "/gnss/status", self.on_status, SENSOR_QOS)
+        if len(datum) >= 3:
+            self.set_datum(*datum[:3])
+        diag = Diagnostics(self, "ins")
+        diag.add("inputs", self.check_inputs)
+        diag.add("filter", self.check_filter)
+
+    # ---- mounts and datum ---------------------------------------------------------------------------
+    def ready(self):
+        """True once the mounts are known from TF and the filter exists."""
+        if self.ekf is not None:
+            return True
+        imu = self.tf.lookup(self.frames["base"], self.frames["imu"])
+        gnss = self.tf.lookup(self.frames["base"], self.frames["gnss"])
+        if imu is None or gnss is None:
+            self.counters["missing_tf"] += 1
+            return False
+        self.mounts = Mounts.from_tf(imu[0], Rotation.from_quat(imu[1]).as_matrix(), gnss[0])
+        self.settings.lever_gnss_frd = tuple(self.mounts.lever_gnss_frd)
+        self.ekf = InsEkf(self.settings)
+        return True
+
+    def set_datum(self, lat, lon, alt):
+        self.plane = LocalTangentPlane(float(lat), float(lon), float(alt))
+        msg = NavSatFix()
+        msg.header.frame_id = self.frames["map"]
+        msg.header.stamp = self.get_clock().now().to_msg()
+        msg.latitude, msg.longitude, msg.altitude = float(lat), float(lon), float(alt)
+        msg.status.status = NavSatStatus.STATUS_FIX
+        msg.position_covariance_type = NavSatFix.COVARIANCE_TYPE_UNKNOWN
+        self.datum_pub.publish(msg)
+
+    # ---- inputs ---------------------------------------------------------------------------------------
+    def on_imu(self, msg):
+        if msg.linear_acceleration_covariance[0] == -1.0:
+            self.counters["no_accel"] += 1
+            return
+        t = to_sec(msg.header.stamp)
+        if self.stamp_guards["imu"].check(t) is not None or not self.ready():
+            return
+        self.counters["imu"] += 1
+        r = self.mounts.imu_to_frd
+        w, a = msg.angular_velocity, msg.linear_acceleration
+        if self.ekf.add_imu(t, r @ np.array([w.x, w.y, w.z]), r @ np.array([a.x, a.y, a.z])) is not None:
+            return
+        var = np.diag(np.array(msg.angular_velocity_covariance).reshape(3, 3))
+        if np.all(var >= 0) and np.all(np.isfinite(var)):
+            self.rate_var = np.diag(r @ np.diag(var) @ r.T)
+        if self.pending_fix is not None and t - self.pending_fix.t > self.settings.history / 2:
+            self.submit(None)           # its velocity never came: fuse the position alone
+        self.publish()
+
+    def on_status(self, msg):
+        self.fix_type = msg.fix_type
+
+    def on_vel(self, msg):
+        t = to_sec(msg.header.stamp)
+        if self.stamp_guards["vel"].check(t) is not None:
+            return
+        v = msg.twist.twist.linear
+        cov = np.array(msg.twist.covariance).reshape(6, 6)[:3, :3]
+        if not np.all(np.diag(cov) > 0):
+            cov = np.eye(3) * self.default_vel_sigma ** 2
+        self.velocities = (self.velocities + [(t, np.array([v.x, v.y, v.z]), cov)])[-10:]
+        if self.pending_fix is not None and abs(self.pending_fix.t - t) <= EPOCH_MATCH_S:
+            self.submit(self.velocities[-1])
+
+    def on_fix(self, msg):
+        t = to_sec(msg.header.stamp)
+        if msg.status.status < NavSatStatus.STATUS_FIX:
+            self.counters["no_fix"] += 1
+            return
+        values = [msg.latitude, msg.longitude, msg.altitude, *msg.position_covariance]
+        if not np.all(np.isfinite(values)):
+            self.counters["bad_fix"] += 1
+            return
+        if self.stamp_guards["fix"].check(t) is not None or not self.ready():
+            return
+        if self.plane is None:
+            self.set_datum(msg.latitude, msg.longitude, msg.altitude)
+        if self.pending_fix is not None:
+            self.submit(None)
+        cov = np.array(msg.position_covariance).reshape(3, 3)
+        if msg.position_covariance_type == NavSatFix.COVARIANCE_TYPE_UNKNOWN or not np.all(np.diag(cov) > 0):
+            cov = np.eye(3) * self.default_fix_sigma ** 2
+        self.pending_fix = GnssSample(t, math.radians(msg.latitude), math.radians(msg.longitude), msg.altitude, cov,
+                                      fix_type=self.fix_type if self.fix_type is not None else -1)
+        vel = next((v for v in self.velocities if abs(v[0] - t) <= EPOCH_MATCH_S), None)
+        if vel is not None:
+            self.submit(vel)
+
+    def submit(self, vel):
+        """Hand the pending fix (with the velocity of its epoch, if any) to the filter."""
+        g, self.pending_fix = self.pending_fix, None
+        if vel is not None:
+            g.vel_enu, g.vel_cov_enu = vel[1], vel[2]
+        self.counters["gnss"] += 1
+        self.ekf.add_gnss(g)
+
+    # ---- outputs ----------------------------------------------------------------------------------------
+    def publish(self):
+        sol = self.ekf.solution()
+        if sol is None or self.plane is None:
+            return
+        s = base_link_state(sol, self.mounts, self.plane, self.rate_var)
+        if not s.finite():
+            self.counters["output_nan"] += 1
+            return
+        stamp = to_stamp(s.t)
+        quat = quaternion_from_euler(*s.rpy)
+        odom = Odometry()
+        odom.header.stamp = stamp
+        odom.header.frame_id = self.frames["map"]
+        odom.child_frame_id = self.frames["base"]
+        pose = odom.pose.pose
+        pose.position.x, pose.position.y, pose.position.z = (float(v) for v in s.position)
+        pose.orientation.x, pose.orientation.y, pose.orientation.z, pose.orientation.w = quat
+        odom.pose.covariance = [float(v) for v in s.pose_cov.ravel()]
+        tw = odom.twist.twist
+        tw.linear.x, tw.linear.y, tw.linear.z = (float(v) for v in s.velocity)
+        tw.angular.x, tw.angular.y, tw.angular.z = (float(v) for v in s.rates)
+        odom.twist.covariance = [float(v) for v in s.twist_cov.ravel()]
+        self.odom_pub.publish(odom)
+        imu = Imu()
+        imu.header.stamp = stamp
+        imu.header.frame_id = self.frames["base"]
+        imu.orientation = pose.orientation
+        imu.orientation_covariance = [float(v) for v in s.pose_cov[3:, 3:].ravel()]
+        imu.angular_velocity = tw.angular
+        imu.angular_velocity_covariance = [float(v) for v in s.twist_cov[3:, 3:].ravel()]
+        imu.linear_acceleration_covariance[0] = -1.0
+        self.imu_pub.publish(imu)
+        if self.publish_tf:
+            self.tf_out.send([
+                make_transform(self.frames["map"], self.frames["odom"], stamp, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 1.0)),
+                make_transform(self.frames["odom"], self.frames["base"], stamp, s.position, quat)])
+        self.counters["published"] += 1
+
+    def check_inputs(self):
+        c = dict(self.counters, **{f"{k}_stamp_rejected": g.rejected for k, g in self.stamp_guards.items()})
+        if self.ekf is not None:
+            c.update({f"rejected_{k}": v for k, v in self.ekf.stats["rejected"].items()})
+        if self.counters["no_accel"]:
+            return ERROR, "/imu/data_raw has no accelerometers (linear_acceleration_covariance[0] == -1): " \
+                          "the INS needs them", c
+        if self.ekf is None:
+            return WARN, f"waiting for TF {self.frames['base']}->{self.frames['imu']}/{self.frames['gnss']}", c
+        bad = sum(v for k, v in c.items() if k.endswith("rejected") or k.startswith("rejected_")
+                  or k in ("no_fix", "bad_fix", "output_nan"))
+        return (WARN if bad else OK), f"{bad} inputs rejected", c
+
+    def check_filter(self):
+        if self.ekf is None:
+            return WARN, "not started (mounts)", {}
+        h = self.ekf.health()
+        h["fix_type"] = self.fix_type
+        age = h.get("gnss_age_s", math.inf)
+        h["mode"] = "uninitialized" if self.ekf.mech is None else (
+            "ins_only_outage" if age > self.gnss_timeout else "gnss_aided")
+        level = OK if h["alignment"] == "aligned" and h["mode"] == "gnss_aided" else WARN
+        return level, f"{h['alignment']}, {h['mode']}", h
+
+
+main = main_for(InsNode)
