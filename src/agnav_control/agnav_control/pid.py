@@ -8,7 +8,7 @@ from .limits import Integrator, SpeedSchedule, SteeringLimiter, SteeringLimits
 
 @dataclass
 class PIDSettings:
-    kp: float = 0.25       # rad/m on cross-track
+    kp: float = 0.35       # rad/m on cross-track
     ki: float = 0.02       # rad/(m s) on integrated cross-track
     kd: float = 0.0        # rad/(m/s) on the cross-track rate v*sin(heading_error)
     kh: float = 2.0        # rad/rad on heading error (damping ~0.85 at 4.3 m/s on the MX240)
