@@ -4,7 +4,8 @@ Runs `agnav run CONFIG --bag BAG --record` (the real nodes, as fast as the graph
 test1 (Husky, rotated Microstrain IMU, SBAS 2.5 Hz; config test1) and the VN-100 car-circles log (config nuance;
 bag from agnav_drivers.csv_import). No ground truth: heading is scored against the GNSS course over ground (the
 chord between the fixes about ±half-chord s around each fix, where its speed exceeds MIN_SPEED; the chord's own
-noise, ≈ √2 σ_fix / length, is listed), position against the fixes themselves (the filter's own input: a
+noise, ≈ √2 σ_fix / length, is listed; the nuance log has no GPS accuracy and 2.5 m is assumed, so there it is an
+upper bound), position against the fixes themselves (the filter's own input: a
 consistency check, not accuracy), and every output is checked for NaN and divergence (> DIVERGED_M from the fixes).
 Cost: bag duration / wall time of the whole replay (graph start-up included) = × real time; the simulated
 asphalt_loop replay of `agnav run nsm` (the `make run` graph) is timed and scored against its truth as well.
@@ -167,6 +168,10 @@ def markdown(results):
                   f"(GNSS + gyro, no wheel-odometry input) ({d[0]:.1f}, {d[1]:.1f}) m from its first published pose "
                   f"({math.hypot(*d):.1f} m): that regression value is a dead-reckoning reference without GNSS, "
                   "not a position, so no frame comparison is meaningful; adding wheel odometry is left undone."]
+    lines += ["", "Data notes: test1's IMU mount is upstream's `static_transform_publisher 0 -0.3 0.52 -1.5708 0 1.5708` "
+              "(x y z yaw pitch roll), i.e. rpy (π/2, 0, −π/2) — its +y axis points up and reads +9.8 m/s² at rest; "
+              "nuance's GPS stamps run 4.8 s behind its IMU clock (fixed in the bag by csv_import --gps-time-offset; "
+              "uncorrected, the module loses the heading at the first lap and drives backwards)."]
     return "\n".join(lines) + "\n"
 
 
