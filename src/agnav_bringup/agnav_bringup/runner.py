@@ -88,18 +88,22 @@ class ChildProcesses:
         """Block until every child node is in the ROS graph (a replay must not start before)."""
         names = {spec.name or spec.executable for spec, _ in self.procs}
         deadline = time.monotonic() + timeout
-        while time.monotonic() < deadline and not self.failure():
+        while time.monotonic() < deadline and not self.failure() and not self.finished():
             if names <= set(probe.get_node_names()):
                 break
             time.sleep(0.1)
         probe.destroy_node()
 
     def failure(self):
-        """Description of the first child that has exited, else None."""
+        """Description of the first child that has exited with an error, else None."""
         for spec, proc in self.procs:
-            if proc.poll() is not None:
+            if proc.poll() is not None and proc.returncode != 0:
                 return f"node '{spec.name or spec.executable}' exited with code {proc.returncode}"
         return None
+
+    def finished(self):
+        """True when a child has ended cleanly (e.g. a simulator at the end of its scenario)."""
+        return any(proc.poll() == 0 for _, proc in self.procs)
 
     def stop(self):
         for _, proc in self.procs:
@@ -168,6 +172,9 @@ def run(args):
                 break
             if player is not None and player.finished and drained(recorder, quiet=2.0 if args.processes else 0.3):
                 break
+            if player is None and (any(getattr(n, "finished", False) for n in nodes) or
+                                   (children and children.finished())):
+                break  # a live source (the simulator) has ended its run
     except KeyboardInterrupt:
         stopping.append("SIGINT")
     except Exception as exc:  # a node raised: report and exit non-zero
