@@ -95,12 +95,21 @@ def odometry_arrays(samples):
     return dict(zip(("t", "x", "y", "z", "roll", "pitch", "yaw"), a[order].T))
 
 
+UNKNOWN_VARIANCE = 1e4  # rad^2: a yaw published with this variance or more is relative / unknown (REP-145 style)
+
+
 def imu_attitude_arrays(samples):
-    """Arrays t, roll, pitch, yaw from [(stamp, sensor_msgs/Imu)] with a valid orientation."""
+    """Arrays t, roll, pitch (and yaw unless every sample marks it unknown) from [(stamp, sensor_msgs/Imu)]
+    with a valid orientation."""
+    valid = [(t, m) for t, m in samples
+             if m.orientation_covariance[0] >= 0 and m.orientation.w ** 2 + m.orientation.z ** 2 > 0]
     rows = [(t, *euler_from_quaternion(m.orientation.x, m.orientation.y, m.orientation.z, m.orientation.w))
-            for t, m in samples if m.orientation_covariance[0] >= 0 and m.orientation.w ** 2 + m.orientation.z ** 2 > 0]
+            for t, m in valid]
     a = np.array(rows, dtype=float).reshape(-1, 4)
-    return dict(zip(("t", "roll", "pitch", "yaw"), a[np.argsort(a[:, 0], kind="stable")].T))
+    arrays = dict(zip(("t", "roll", "pitch", "yaw"), a[np.argsort(a[:, 0], kind="stable")].T))
+    if valid and all(m.orientation_covariance[8] >= UNKNOWN_VARIANCE for _, m in valid):
+        del arrays["yaw"]
+    return arrays
 
 
 def _datum(samples):
