@@ -20,7 +20,7 @@ class NavEKFSettings:
     bias_walk: float = 1.0e-4      # rad/s/sqrt(s) yaw-gyro bias random walk
     jerk_noise: float = 0.3        # m/s^3/sqrt(Hz) longitudinal jerk
     accel_tau: float = 2.0         # s, longitudinal acceleration is Gauss-Markov (decays to 0 without fixes)
-    slip_noise: float = 0.02       # m/sqrt(s) unmodelled position motion (slip, sway)
+    slip_noise: float = 0.005      # m/sqrt(s) unmodelled position motion (slip, sway)
     init_heading_sigma: float = 0.2
     init_bias_sigma: float = 0.005  # rad/s
     init_speed_sigma: float = 0.5
@@ -84,6 +84,14 @@ class NavEKF:
         H[0, IX] = H[1, IY] = 1.0
         y, S, d2 = kalman.innovation(self.x, self.P, np.asarray(xy, dtype=float), H, R)
         return y, S, d2, H
+
+    def zero_rate_innovation(self, rate, var):
+        """(y, S, H, R) of a standstill: the clockwise gyro rate reads the bias b, with variance var (rad/s)^2."""
+        H = np.zeros((1, 6))
+        H[0, IB] = 1.0
+        R = np.array([[var]])
+        y, S, _ = kalman.innovation(self.x, self.P, np.array([rate]), H, R)
+        return y, S, H, R
 
     def velocity_innovation(self, v_en, R):
         """(y, S, d2, H) of a horizontal velocity (east, north) measurement of the reference point."""

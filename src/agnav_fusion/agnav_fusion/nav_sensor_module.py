@@ -35,11 +35,15 @@ class NavSensorModuleSettings:
     ekf: NavEKFSettings = field(default_factory=NavEKFSettings)
     incl_lever_flu: tuple = (0.0, 0.0, 0.0)   # m, base_link -> inclinometer_link translation (from TF)
     accel_compensation: bool = True           # agnav: remove the modelled kinematic acceleration from the inclinometer
-    use_gnss_velocity: bool = False           # agnav: also fuse /gnss/vel (hurt heading on the AgGPS132 run)
+    use_gnss_velocity: bool = True            # agnav: also fuse /gnss/vel (course and speed)
     velocity_sigma: float = 0.05              # m/s, 1-sigma per axis of GNSS velocity
     gate_chi2: float = 13.8                   # squared Mahalanobis gate, 2 dof 99.9 %
     max_consecutive_rejects: int = 5          # then accept with re-initialised position (no lock-out)
     heading_init_speed: float = 0.3           # m/s of GNSS speed before the absolute heading is initialised
+    heading_init_distance: float = 3.0        # m of chord between moving fixes that initialises the heading
+    stationary_speed: float = 0.05            # m/s: slower fixes mark the vehicle still (yaw rate zero: gyro bias)
+    still_rate_sigma: float = 0.01            # rad/s per IMU sample of a still gyro (ENV-05F 0.25 deg/s, 10 Hz band)
+    motion_bias_sigma: float = 0.003          # rad/s, yaw-gyro bias change once moving (SPEC §11.4 motion biases)
     history: float = 2.0                      # s of IMU history kept for GNSS latency
     incl_timeout: float = 0.5                 # s, older inclinometer data is stale (gyro-only attitude)
     gnss_timeout: float = 2.5                 # s without an accepted fix -> dead reckoning
@@ -72,6 +76,7 @@ class _Sample:
     heading: float            # thesis heading estimate at this epoch
     raw_heading: float        # thesis: integrated raw yaw gyro
     nav: tuple                # agnav: (x, P) of the EKF; thesis: (xy, cov) of dead reckoning
+    still: bool = False       # agnav: vehicle stationary (zero-yaw-rate update of the gyro bias)
 
 
 def _finite(*values):
@@ -114,6 +119,8 @@ class NavSensorModule:
         self._raw_heading = 0.0      # relative yaw before the absolute heading exists (agnav)
         self._fix = None             # latest accepted corrected fix (t, xyz, cov)
         self._heading_known = False  # agnav: absolute heading initialised from the GNSS course
+        self._chord_start = None     # agnav: (xy, relative heading) of the first moving fix before initialisation
+        self._still = False          # agnav: the latest fix says the vehicle stands still
         self._speed = 0.0            # thesis: travel speed V for dead reckoning
         self._state = None
 
@@ -198,7 +205,7 @@ class NavSensorModule:
             pitch = self.pitch_filter.update(-dpitch, pitch_incl, dt, acc[0] / GRAVITY)
             self._raw_heading += rate_cw * dt
             if self.ekf.x is not None:
-                self.ekf.predict(rate_cw, dt)
+                self._propagate(rate_cw, dt, self._still)
                 heading, nav = self.ekf.x[IPHI], (self.ekf.x.copy(), self.ekf.P.copy())
             else:
                 heading, nav = self._raw_heading, None
@@ -214,9 +221,16 @@ class NavSensorModule:
         roll = 0.0 if roll is None else roll
         pitch = 0.0 if pitch is None else pitch
         raw = self._raw_heading if s.estimator == "agnav" else self.heading_lsm.raw_heading
-        self._history.append(_Sample(t, dt, rate_cw, gyro, roll, pitch, heading, raw, nav))
+        self._history.append(_Sample(t, dt, rate_cw, gyro, roll, pitch, heading, raw, nav, self._still))
         while self._history[0].t < t - s.history:
             self._history.popleft()
+
+    def _propagate(self, rate_cw, dt, still):
+        """EKF prediction with the yaw rate; standing still, the gyro reading is its bias (zero-rate update)."""
+        self.ekf.predict(rate_cw, dt)
+        if still:
+            y, S, H, R = self.ekf.zero_rate_innovation(rate_cw, self.settings.still_rate_sigma ** 2)
+            self.ekf.update(y, S, H, R)
 
     def _kinematic_acceleration(self, gyro, prev, dt):
         """Body (FLU) acceleration of the inclinometer: forward A, centripetal V*wz, and the lever-arm terms
@@ -248,7 +262,10 @@ class NavSensorModule:
         fwd = np.array([math.sin(snap.heading), math.cos(snap.heading)])
         xy = corrected[:2] - (t - snap.t) * (speed or 0.0) * fwd   # align to the snapshot epoch
         if self.settings.estimator == "agnav":
-            accepted = self._fix_agnav(k, t, xy, R, v_ref, speed)
+            if speed is None and self._fix is not None:  # V from successive tilt-corrected fixes
+                speed = float(np.hypot(*(xy - self._fix[1][:2]))) / max(t - self._fix[0], 1e-3)
+            was_still, self._still = self._still, speed is not None and speed < self.settings.stationary_speed
+            accepted = self._fix_agnav(k, t, xy, R, v_ref, speed, was_still and not self._still)
         else:
             accepted = self._fix_thesis(k, t, xy, R, speed)
         if accepted:
@@ -268,28 +285,34 @@ class NavSensorModule:
         self.counters["gnss_gated"] += 1
         return False
 
-    def _fix_agnav(self, k, t, xy, R, v_ref, speed):
+    def _fix_agnav(self, k, t, xy, R, v_ref, speed, started=False):
         s, hist, ekf = self.settings, self._history, self.ekf
         snap = hist[k]
-        if ekf.x is None:  # position and speed from the first fix; heading unknown until moving
+        first = ekf.x is None
+        if first:  # position and speed from the first fix; heading unknown until moving
             ekf.initialise(xy, R, snap.heading, speed or 0.0)
             ekf.P[IPHI, IPHI] = math.pi ** 2
-        elif not self._heading_known:
+        else:
             ekf.x, ekf.P = snap.nav[0].copy(), snap.nav[1].copy()
-            course = v_ref if speed is not None and speed >= s.heading_init_speed else None
-            if speed is None and np.hypot(*(xy - self._fix[1][:2])) > 2.0:
-                course = xy - self._fix[1][:2]
-            for i, sigma in ((IPHI, math.pi), (IB, s.ekf.init_bias_sigma)):  # unobservable yet: decouple
+            if started:  # the gyro bias learnt standing still shifts once the vehicle moves
+                ekf.P[IB, IB] += s.motion_bias_sigma ** 2
+        if first:
+            pass
+        elif not self._heading_known:
+            for i, var in ((IPHI, math.pi ** 2), (IB, ekf.P[IB, IB])):  # no heading yet: decouple
                 ekf.P[i, :] = ekf.P[:, i] = 0.0
-                ekf.P[i, i] = sigma ** 2
-            if course is not None:  # absolute heading from the GNSS course
-                ekf.x[IPHI] = math.atan2(course[0], course[1])
-                ekf.P[IPHI, IPHI] = s.ekf.init_heading_sigma ** 2
+                ekf.P[i, i] = var
+            chord = self._chord_course(xy, snap.raw_heading, speed or 0.0)
+            if chord is not None:  # absolute heading from the chord between moving fixes
+                ekf.x[IPHI] = chord
+                ekf.P[IPHI, IPHI] = np.trace(R) / s.heading_init_distance ** 2
                 self._heading_known = True
+            elif v_ref is not None and speed >= s.heading_init_speed:  # provisional: the course over ground
+                ekf.x[IPHI] = math.atan2(*v_ref)
+                ekf.P[IPHI, IPHI] = s.ekf.init_heading_sigma ** 2
             y, S, d2, H = ekf.position_innovation(xy, R)
             ekf.update(y, S, H, R)
         else:
-            ekf.x, ekf.P = snap.nav[0].copy(), snap.nav[1].copy()
             y, S, d2, H = ekf.position_innovation(xy, R)
             verdict = self._gate(d2)
             if verdict is False:
@@ -308,9 +331,25 @@ class NavSensorModule:
                     self.counters["velocity_gated"] += 1
         snap.nav, snap.heading = (ekf.x.copy(), ekf.P.copy()), ekf.x[IPHI]
         for j in range(k + 1, len(hist)):  # replay the IMU samples received since the epoch
-            ekf.predict(hist[j].rate_cw, hist[j].dt)
+            self._propagate(hist[j].rate_cw, hist[j].dt, hist[j].still)
             hist[j].nav, hist[j].heading = (ekf.x.copy(), ekf.P.copy()), ekf.x[IPHI]
         return True
+
+    def _chord_course(self, xy, rel_heading, speed):
+        """Heading (rad, cw from north) at this fix from the chord to the first moving fix once it is
+        heading_init_distance long (the chord's direction is the mean heading: half the gyro turn is added), or None.
+        speed: from /gnss/vel when present, else from successive fixes."""
+        s = self.settings
+        if speed < s.heading_init_speed:
+            self._chord_start = None
+            return None
+        if self._chord_start is None:
+            self._chord_start = (xy, rel_heading)
+            return None
+        d = xy - self._chord_start[0]
+        if np.hypot(*d) < s.heading_init_distance:
+            return None
+        return math.atan2(d[0], d[1]) + 0.5 * math.remainder(rel_heading - self._chord_start[1], 2 * math.pi)
 
     def _fix_thesis(self, k, t, xy, R, speed):
         hist = self._history
@@ -352,9 +391,25 @@ class NavSensorModule:
         a, b, h = self.lever
         return h * h * (vr + vp) / 2 + (a * a + b * b) * vh
 
+    def _rate_corrections(self):
+        """Estimated gyro errors removed from the body rates (FLU); a tilt axis without attitude filter output
+        (no inclinometer yet) is zeroed, since its raw gyro offset would pass into the lever-arm velocity."""
+        if self.settings.estimator == "agnav":
+            yaw_corr = -float(self.ekf.x[IB]) if self.ekf.x is not None else 0.0
+            roll_corr, pitch_corr = -self.roll_filter.bias, -self.pitch_filter.bias
+        else:
+            roll_corr, pitch_corr, yaw_corr = self.roll_filter.drift, self.pitch_filter.drift, self.heading_lsm.drift
+        return np.array([roll_corr, -pitch_corr, -yaw_corr])
+
+    def _corrected_rates(self, body_rates):
+        rates = body_rates + self._rate_corrections()
+        rates[0] *= self.roll_filter.angle is not None
+        rates[1] *= self.pitch_filter.angle is not None
+        return rates
+
     def _lever_velocity(self, snap):
-        """ENU velocity of the antenna relative to base_link from the body rates (omega x lever)."""
-        v_body = np.cross(snap.body_rates, np.asarray(self.settings.lever_flu, float))
+        """ENU velocity of the antenna relative to base_link from the corrected body rates (omega x lever)."""
+        v_body = np.cross(self._corrected_rates(snap.body_rates), np.asarray(self.settings.lever_flu, float))
         e = tilt_correction.vehicle_to_ground(snap.heading, snap.pitch, snap.roll)
         right_fwd_up = np.array([-v_body[1], v_body[0], v_body[2]])
         return (e @ right_fwd_up)[:2]
@@ -371,11 +426,9 @@ class NavSensorModule:
             position[2] = self._fix[1][2]
             pose_cov[2, 2] = self._fix[2][2, 2]
         if s.estimator == "agnav":
-            roll_corr, pitch_corr = -self.roll_filter.bias, -self.pitch_filter.bias
-            yaw_corr = 0.0
             if snap.nav is not None:
                 x, P = snap.nav
-                position[:2], speed, yaw_corr = x[:2], float(x[IV]), -float(x[IB])
+                position[:2], speed = x[:2], float(x[IV])
                 heading_valid = self._heading_known
                 idx = [0, 1, IPHI]
                 pose_cov[np.ix_([0, 1, 5], [0, 1, 5])] = P[np.ix_(idx, idx)] * np.array(
@@ -388,8 +441,6 @@ class NavSensorModule:
                 pose_cov[:2, :2] = self._fix[2][:2, :2]
                 position_valid = True
         else:
-            roll_corr, pitch_corr = self.roll_filter.drift, self.pitch_filter.drift
-            yaw_corr = self.heading_lsm.drift
             speed = self._speed
             if snap.nav is not None:
                 position[:2] = snap.nav[0]
@@ -398,7 +449,7 @@ class NavSensorModule:
             if self.heading_lsm.heading is not None:
                 heading_valid = True
                 pose_cov[5, 5] = self._heading_variance()
-        rates = snap.body_rates + np.array([roll_corr, -pitch_corr, -yaw_corr])
+        rates = snap.body_rates + self._rate_corrections()
         rpy = np.array([snap.roll, -snap.pitch, math.remainder(math.pi / 2 - snap.heading, 2 * math.pi)])
         dead_reckoning = snap.t - self._last_accepted_t > s.gnss_timeout
         return NavState(snap.t, position, rpy, pose_cov, speed, rates, twist_cov,

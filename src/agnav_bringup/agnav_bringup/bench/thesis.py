@@ -52,17 +52,22 @@ def sensor_streams(run):
     return gyro, enu
 
 
-def run_module(run, estimator="agnav", outage=None):
-    """Replay a SimRun through NavSensorModule in arrival order; returns arrays at IMU epochs and cost."""
-    settings = NavSensorModuleSettings(estimator=estimator, lever_flu=tuple(run.mounts["gnss_link"][0]))
+def run_module(run, estimator="agnav", outage=None, arrival=None, prepare=None, **overrides):
+    """Replay a SimRun through NavSensorModule in arrival order (GNSS at `arrival`, default t_arrival); prepare(nsm)
+    runs before the replay, overrides set NavSensorModuleSettings fields. Returns arrays at IMU epochs and cost."""
+    settings = NavSensorModuleSettings(estimator=estimator, lever_flu=tuple(run.mounts["gnss_link"][0]),
+                                       incl_lever_flu=tuple(run.mounts["inclinometer_link"][0]), **overrides)
     nsm = NavSensorModule(settings)
+    if prepare:
+        prepare(nsm)
     gyro, enu = sensor_streams(run)
     g, incl = run.gnss, run.incl
-    order = np.argsort(g.t_arrival)
+    arrival = g.t_arrival if arrival is None else arrival
+    order = np.argsort(arrival, kind="stable")
     gi, out = 0, []
     start = time.perf_counter()
     for i, t in enumerate(run.imu.t):
-        while gi < len(order) and g.t_arrival[order[gi]] <= t:
+        while gi < len(order) and arrival[order[gi]] <= t:
             j = order[gi]
             if outage is None or not outage[0] <= g.t[j] < outage[1]:
                 nsm.gnss(T0 + g.t[j], enu[j], g.cov[j], g.vel[j])
@@ -75,7 +80,7 @@ def run_module(run, estimator="agnav", outage=None):
     cost = (time.perf_counter() - start) / len(run.imu.t) * 1e6
     a = np.array(out)
     return dict(x=a[:, 0], y=a[:, 1], roll=a[:, 2], pitch=a[:, 3], yaw=a[:, 4], valid=a[:, 5] > 0,
-                var_x=a[:, 6], var_yaw=a[:, 7], us=cost, counters=nsm.counters)
+                var_x=a[:, 6], var_yaw=a[:, 7], us=cost, counters=nsm.counters, module=nsm)
 
 
 def errors(run, est, valid=None):

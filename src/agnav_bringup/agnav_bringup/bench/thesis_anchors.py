@@ -1,0 +1,127 @@
+"""Open AHRS anchors and the offline RTS lower bound for `agnav bench thesis` (same simulated runs).
+
+Anchors run on the run's gyros plus a simulated accelerometer (`simulate(..., accel=SERVO_ACCEL)`: the other
+streams are identical for the same seed): ahrs.filters.EKF and Madgwick (gyro + accelerometer; without a
+magnetometer their heading is relative: initialised with the true first attitude), imufusion.Ahrs (xio Fusion;
+absolute heading from the GNSS course over ground through update_external_heading while faster than 0.3 m/s,
+gyro offset from its own stationary Bias estimator). The smoother replays the agnav module with GNSS fed at its
+epoch (offline: no latency) and runs kalman.smooth_log over the attitude KFs and the navigation EKF.
+"""
+import math
+import time
+
+import numpy as np
+
+from agnav_common.frames import euler_from_quaternion, quaternion_from_euler
+from agnav_fusion import kalman
+from agnav_fusion.nav_ekf import IPHI
+
+GRAVITY = 9.80665
+COURSE_SPEED = 0.3  # m/s, slower GNSS velocities give no course to imufusion
+
+
+def _wxyz(roll, pitch, yaw):
+    x, y, z, w = quaternion_from_euler(roll, pitch, yaw)
+    return np.array([w, x, y, z])
+
+
+def _euler(q_wxyz):
+    w, x, y, z = q_wxyz
+    return euler_from_quaternion(x, y, z, w)
+
+
+def _base_imu(run):
+    """Gyro (rad/s) and accelerometer (m/s^2) rotated into base_link."""
+    from agnav_bringup.bench.thesis import _mount_rotation
+
+    _, r = _mount_rotation(run, "imu_link")
+    return run.imu.gyro @ r.T, run.imu.accel @ r.T
+
+
+def _ahrs_filter(run, name):
+    from ahrs.filters import EKF, Madgwick
+
+    gyro, acc = _base_imu(run)
+    rate = run.imu_rate_hz
+    tr = run.truth
+    q = _wxyz(tr.roll[0], tr.pitch[0], tr.yaw[0])
+    if name == "ahrs EKF":  # its ENU measurement model expects the gravity vector, i.e. minus the specific force
+        f = EKF(frequency=rate, frame="ENU")
+        step, acc = f.update, -acc
+    else:
+        f = Madgwick(frequency=rate)
+        step = f.updateIMU
+    out = np.empty((len(gyro), 3))
+    start = time.perf_counter()
+    for i in range(len(gyro)):
+        q = step(q, gyro[i], acc[i])
+        out[i] = _euler(q)
+    us = (time.perf_counter() - start) / len(gyro) * 1e6
+    return dict(roll=out[:, 0], pitch=out[:, 1], yaw=out[:, 2], us=us)
+
+
+def _imufusion(run):
+    import imufusion
+
+    gyro, acc = _base_imu(run)
+    rate = run.imu_rate_hz
+    settings = imufusion.AhrsSettings()
+    settings.convention = imufusion.CONVENTION_ENU
+    settings.sample_rate = rate
+    settings.acceleration_rejection = 10.0
+    settings.rejection_timeout = int(5 * rate)
+    ahrs = imufusion.Ahrs()
+    ahrs.set_settings(settings)
+    ahrs.set_sample_period(1.0 / rate)
+    bias = imufusion.Bias()
+    bias.set_settings(imufusion.BiasSettings(sample_rate=rate, stationary_threshold=3.0, stationary_period=3.0))
+    g = run.gnss
+    order = np.argsort(g.t_arrival)
+    course, gi = None, 0
+    out = np.empty((len(gyro), 3))
+    start = time.perf_counter()
+    for i, t in enumerate(run.imu.t):
+        while gi < len(order) and g.t_arrival[order[gi]] <= t:
+            v = g.vel[order[gi]]
+            course = math.degrees(math.atan2(v[1], v[0])) if math.hypot(v[0], v[1]) > COURSE_SPEED else course
+            gi += 1
+        w = bias.update(np.degrees(gyro[i]))
+        a = acc[i] / GRAVITY
+        if course is None:
+            ahrs.update_no_magnetometer(w, a)
+        else:  # Fusion's ENU heading is the yaw minus 90 deg
+            ahrs.update_external_heading(w, a, course - 90.0)
+        out[i] = _euler(ahrs.get_quaternion())
+    us = (time.perf_counter() - start) / len(gyro) * 1e6
+    return dict(roll=out[:, 0], pitch=out[:, 1], yaw=out[:, 2], us=us)
+
+
+def anchors(run):
+    """{name: estimate dict (roll, pitch, yaw REP-103 rad at IMU epochs, us per sample)} for a run with accel."""
+    return {"ahrs EKF": _ahrs_filter(run, "ahrs EKF"), "ahrs Madgwick": _ahrs_filter(run, "ahrs Madgwick"),
+            "imufusion": _imufusion(run)}
+
+
+def _tail(filtered, smoothed):
+    """The filter output with its last len(smoothed) samples (those the filter logged) replaced."""
+    out = np.array(filtered, dtype=float)
+    if len(smoothed):
+        out[-len(smoothed):] = smoothed
+    return out
+
+
+def smoother(run):
+    """RTS lower bound: the agnav module replayed offline (GNSS at its epoch), then smoothed; estimate dict."""
+    from agnav_bringup.bench.thesis import run_module
+
+    def enable_logs(nsm):
+        nsm.roll_filter.log, nsm.pitch_filter.log, nsm.ekf.log = [], [], []
+
+    est = run_module(run, "agnav", arrival=run.gnss.t, prepare=enable_logs)
+    nsm = est["module"]
+    roll = kalman.smooth_log(nsm.roll_filter.log)[0][:, 0]
+    pitch = kalman.smooth_log(nsm.pitch_filter.log)[0][:, 0]
+    nav = kalman.smooth_log(nsm.ekf.log, angles=(IPHI,))[0]
+    return dict(roll=_tail(est["roll"], roll), pitch=_tail(est["pitch"], -pitch),
+                yaw=_tail(est["yaw"], np.remainder(math.pi / 2 - nav[:, IPHI] + math.pi, 2 * math.pi) - math.pi),
+                x=_tail(est["x"], nav[:, 0]), y=_tail(est["y"], nav[:, 1]), valid=est["valid"])
