@@ -4,6 +4,7 @@ import math
 import numpy as np
 import pytest
 
+from agnav_fusion.nav_ekf import IB
 from agnav_fusion.nav_sensor_module import NavSensorModule, NavSensorModuleSettings
 
 RATE = 50.0
@@ -17,7 +18,7 @@ def truth(t):
     return yaw, roll, 0.015 * math.cos(0.05 * t), 0.01 * math.cos(0.2 * t)
 
 
-def drive(settings=None, seconds=80.0, outage=(), jump_at=(), seed=2, latency=0.1):
+def drive(settings=None, seconds=80.0, outage=(), jump_at=(), seed=2, latency=0.1, velocity=True):
     """Simulate and feed the module in arrival order; returns per-sample (t, state, true x, true y, true yaw)."""
     rng = np.random.default_rng(seed)
     nsm = NavSensorModule(settings or NavSensorModuleSettings(lever_flu=LEVER))
@@ -34,7 +35,7 @@ def drive(settings=None, seconds=80.0, outage=(), jump_at=(), seed=2, latency=0.
                                                          -math.cos(yaw) * math.sin(roll), 0.0])
             ant[:2] += rng.normal(0, 0.02, 2) + (5.0 if any(abs(t - j) < 1e-9 for j in jump_at) else 0.0)
             vel = np.array([math.cos(yaw), math.sin(yaw), 0.0]) + rng.normal(0, 0.03, 3)
-            pending.append((t + latency, t, ant, np.diag([4e-4, 4e-4, 1e-3]), vel))
+            pending.append((t + latency, t, ant, np.diag([4e-4, 4e-4, 1e-3]), vel if velocity else None))
         for item in [p for p in pending if p[0] <= t]:
             nsm.gnss(*item[1:])
             pending.remove(item)
@@ -107,3 +108,27 @@ def test_30s_outage_dead_reckons_with_growing_covariance_and_reconverges():
     pos_after, hdg_after = errors(out, 85.0)
     assert pos_after < 0.08 and hdg_after < math.radians(1.5)
     assert not out[-1][1].dead_reckoning
+
+
+def test_heading_from_the_fix_chord_without_gnss_velocity():
+    """A receiver without /gnss/vel: the heading starts from the chord between moving fixes."""
+    _, out = drive(seconds=60.0, velocity=False)
+    pos, hdg = errors(out)
+    assert pos < 0.08 and hdg < math.radians(1.5)
+    assert out[-1][1].heading_valid
+
+
+def test_standstill_learns_the_yaw_gyro_offset():
+    """Fixes at rest mark the vehicle still: the yaw gyro reads its own bias (zero-rate update), beyond the prior."""
+    rng = np.random.default_rng(4)
+    nsm = NavSensorModule(NavSensorModuleSettings(lever_flu=LEVER))
+    offset = 0.008  # rad/s (0.46 deg/s, the ENV-05F zero error), CCW
+    for k in range(1, 20 * int(RATE)):
+        t = 10.0 + k / RATE
+        if k % int(RATE) == 0:
+            nsm.gnss(t, rng.normal(0, 0.02, 3), np.diag([4e-4, 4e-4, 1e-3]), np.zeros(3))
+        nsm.inclinometer(t, 0.0, 0.0)
+        nsm.imu(t, np.array([0.0, 0.0, offset]) + rng.normal(0, 0.004, 3))
+    # the EKF bias is of the clockwise rate (thesis convention): -offset
+    assert nsm.ekf.x[IB] == pytest.approx(-offset, abs=1e-3)
+    assert nsm.state().rates[2] == pytest.approx(0.0, abs=0.01)

@@ -42,6 +42,7 @@ class NavSensorModuleSettings:
     heading_init_speed: float = 0.3           # m/s of GNSS speed before the absolute heading is initialised
     heading_init_distance: float = 3.0        # m of chord between moving fixes that initialises the heading
     stationary_speed: float = 0.05            # m/s: slower fixes mark the vehicle still (yaw rate zero: gyro bias)
+    lever_rate_window: float = 0.2            # s of body rates averaged for the antenna lever-arm velocity
     still_rate_sigma: float = 0.01            # rad/s per IMU sample of a still gyro (ENV-05F 0.25 deg/s, 10 Hz band)
     motion_bias_sigma: float = 0.003          # rad/s, yaw-gyro bias change once moving (SPEC §11.4 motion biases)
     history: float = 2.0                      # s of IMU history kept for GNSS latency
@@ -256,7 +257,7 @@ class NavSensorModule:
         k = max(i for i in range(len(hist)) if hist[i].t <= t) if hist[0].t <= t else 0
         snap = hist[k]
         corrected = tilt_correction.correct(antenna, self.lever, snap.heading, snap.pitch, snap.roll)
-        v_ref = None if vel is None else vel[:2] - self._lever_velocity(snap)
+        v_ref = None if vel is None else vel[:2] - self._lever_velocity(k)
         R = cov[:2, :2] + self._tilt_variance() * np.eye(2)
         speed = float(np.hypot(*v_ref)) if v_ref is not None else None
         fwd = np.array([math.sin(snap.heading), math.cos(snap.heading)])
@@ -407,9 +408,13 @@ class NavSensorModule:
         rates[1] *= self.pitch_filter.angle is not None
         return rates
 
-    def _lever_velocity(self, snap):
-        """ENU velocity of the antenna relative to base_link from the corrected body rates (omega x lever)."""
-        v_body = np.cross(self._corrected_rates(snap.body_rates), np.asarray(self.settings.lever_flu, float))
+    def _lever_velocity(self, k):
+        """ENU velocity of the antenna relative to base_link at history sample k: omega x lever, omega the corrected
+        body rate averaged over lever_rate_window (a FOG's angle noise differentiated per sample would be m/s)."""
+        hist, snap = self._history, self._history[k]
+        window = [h.body_rates for h in hist if snap.t - self.settings.lever_rate_window <= h.t <= snap.t]
+        omega = self._corrected_rates(np.mean(window, axis=0))
+        v_body = np.cross(omega, np.asarray(self.settings.lever_flu, float))
         e = tilt_correction.vehicle_to_ground(snap.heading, snap.pitch, snap.roll)
         right_fwd_up = np.array([-v_body[1], v_body[0], v_body[2]])
         return (e @ right_fwd_up)[:2]

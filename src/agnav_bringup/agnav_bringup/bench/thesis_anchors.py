@@ -102,11 +102,13 @@ def anchors(run):
             "imufusion": _imufusion(run)}
 
 
-def _tail(filtered, smoothed):
-    """The filter output with its last len(smoothed) samples (those the filter logged) replaced."""
+def _tail(filtered, smoothed, where=None):
+    """The filter output with its last len(smoothed) samples (those the filter logged) replaced where `where`."""
     out = np.array(filtered, dtype=float)
-    if len(smoothed):
-        out[-len(smoothed):] = smoothed
+    n = len(smoothed)
+    if n:
+        keep = slice(None) if where is None else where[-n:]
+        out[-n:][keep] = np.asarray(smoothed)[keep]
     return out
 
 
@@ -122,6 +124,7 @@ def smoother(run):
     roll = kalman.smooth_log(nsm.roll_filter.log)[0][:, 0]
     pitch = kalman.smooth_log(nsm.pitch_filter.log)[0][:, 0]
     nav = kalman.smooth_log(nsm.ekf.log, angles=(IPHI,))[0]
-    return dict(roll=_tail(est["roll"], roll), pitch=_tail(est["pitch"], -pitch),
-                yaw=_tail(est["yaw"], np.remainder(math.pi / 2 - nav[:, IPHI] + math.pi, 2 * math.pi) - math.pi),
-                x=_tail(est["x"], nav[:, 0]), y=_tail(est["y"], nav[:, 1]), valid=est["valid"])
+    yaw = np.remainder(math.pi / 2 - nav[:, IPHI] + math.pi, 2 * math.pi) - math.pi
+    known = est["valid"]  # before the heading is initialised (its variance reset per fix) the filter output stands
+    return dict(roll=_tail(est["roll"], roll), pitch=_tail(est["pitch"], -pitch), yaw=_tail(est["yaw"], yaw, known),
+                x=_tail(est["x"], nav[:, 0], known), y=_tail(est["y"], nav[:, 1], known), valid=known)
