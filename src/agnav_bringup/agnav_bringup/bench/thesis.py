@@ -141,12 +141,26 @@ def table_54(seed):
             cost[key] = est["us"]
         ests["RTS smoother (offline)"] = thesis_anchors.smoother(run)
         errs = {k: errors(run, est, est["valid"] if k.startswith("module") else valid) for k, est in ests.items()}
+        floors = error_floors(run)
         for (qty, sensor), thesis in TABLE_54.items():
             if sensor != "module":
                 rows.append(_row("table5.4", name, qty, sensor, raw[f"{qty}_{sensor}"], thesis[col]))
                 continue
             rows += [_row("table5.4", name, qty, k, e[qty], thesis[col]) for k, e in errs.items() if qty in e]
+            if qty in floors:
+                rows.append(_row("table5.4", name, qty, floors[qty][0], floors[qty][1], thesis[col]))
     return rows, cost
+
+
+def error_floors(run):
+    """What no estimator on these sensors can remove (simulator's hidden parameters, for the reader): the
+    inclinometer zero offset (roll/pitch; absolute tilt has no other source) and the GNSS receiver's own error at
+    the antenna (position; its slow bias has no other absolute reference)."""
+    off = np.abs(run.extras["incl_offset"]) * DEG
+    g = run.gnss
+    receiver = rms(np.hypot(*(g.enu - g.truth_enu)[:, :2].T)) * 100
+    return {"roll": ("floor: inclinometer zero offset", off[0]), "pitch": ("floor: inclinometer zero offset", off[1]),
+            "position": ("floor: receiver error at the antenna", receiver)}
 
 
 def _at(run, t, values):
