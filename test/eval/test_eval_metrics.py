@@ -62,11 +62,12 @@ def truth_bag(tmp_path_factory):
     return path
 
 
-def _write_output(path, truth, datum, dyaw=0.0, d_east=0.0):
+def _write_output(path, truth, datum, dyaw=0.0, d_east=0.0, imu_yaw_variance=None):
     ts = typestore()
     T = ts.types
     with Writer(path, version=9, storage_plugin=StoragePlugin.MCAP) as w:
         odo = w.add_connection("/odometry/filtered", "nav_msgs/msg/Odometry", typestore=ts)
+        imu = w.add_connection("/imu/data", "sensor_msgs/msg/Imu", typestore=ts) if imu_yaw_variance else None
         fix = w.add_connection("/map_datum", "sensor_msgs/msg/NavSatFix", typestore=ts)
         stamp0 = T["builtin_interfaces/msg/Time"](sec=int(truth["t"][0]), nanosec=0)
         msg = T["sensor_msgs/msg/NavSatFix"](
@@ -89,6 +90,13 @@ def _write_output(path, truth, datum, dyaw=0.0, d_east=0.0):
                 twist=T["geometry_msgs/msg/TwistWithCovariance"](
                     twist=T["geometry_msgs/msg/Twist"](linear=zero, angular=zero), covariance=np.zeros(36)))
             w.write(odo, ns, ts.serialize_cdr(m, "nav_msgs/msg/Odometry"))
+            if imu is not None:  # attitude with a relative (unknown) yaw, as attitude_node publishes it
+                cov = np.diag([1e-4, 1e-4, imu_yaw_variance]).ravel()
+                vec = T["geometry_msgs/msg/Vector3"](x=0.0, y=0.0, z=0.0)
+                w.write(imu, ns, ts.serialize_cdr(T["sensor_msgs/msg/Imu"](
+                    header=m.header, orientation=pose.orientation, orientation_covariance=cov,
+                    angular_velocity=vec, angular_velocity_covariance=np.zeros(9), linear_acceleration=vec,
+                    linear_acceleration_covariance=np.zeros(9)), "sensor_msgs/msg/Imu"))
 
 
 def _truth_and_datum(bag):
@@ -123,3 +131,12 @@ def test_cli_converts_truth_into_the_output_datum(truth_bag, tmp_path, capsys):
     _write_output(tmp_path / "moved", dict(truth, x=x, y=y, z=z), tuple(map(float, shifted)))
     m = _run_json(capsys, [str(tmp_path / "moved"), "--truth", str(truth_bag), "--json"])
     assert m["horizontal_cm"]["max"] < 0.01
+
+
+def test_unknown_imu_yaw_is_not_scored(truth_bag, tmp_path, capsys):
+    truth, datum = _truth_and_datum(truth_bag)
+    _write_output(tmp_path / "imu", truth, datum, imu_yaw_variance=99999.0)
+    m = _run_json(capsys, [str(tmp_path / "imu"), "--truth", str(truth_bag), "--json", "--plots", str(tmp_path)])
+    assert m["imu_data"]["roll_deg"]["max"] == pytest.approx(0.0, abs=1e-6)
+    assert m["imu_data"]["yaw_deg"]["rms"] is None
+    assert (tmp_path / "errors.png").stat().st_size > 0

@@ -185,7 +185,7 @@ def plot(est, truth, imu, out_dir):
         if source is None:
             continue
         s = error_series(source, truth)
-        for key in ("roll", "pitch", "yaw"):
+        for key in (k for k in ("roll", "pitch", "yaw") if k in s):
             a1.plot(s["t"] - t0, s[key], style, lw=0.8, label=key + (" (imu/data)" if source is imu else ""))
         if "east" in s and source is est:
             for key in ("east", "north", "cross_track"):
