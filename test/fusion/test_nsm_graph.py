@@ -57,7 +57,7 @@ def test_graph_accuracy_against_truth(replay):
     bag, out = replay
     metrics, est, truth, _ = evaluate_bags(out, bag)
     assert metrics["datum"]["output_has_map_datum"]
-    assert metrics["duration_s"] > SECONDS - 15  # 10 s standstill, heading from the first course at 11 s
+    assert metrics["duration_s"] > SECONDS - 20  # 10 s standstill, heading from a 3 m chord of moving fixes
     assert metrics["roll_deg"]["rms"] < 0.3 and metrics["pitch_deg"]["rms"] < 0.5
     assert metrics["yaw_deg"]["rms"] < 1.5 and metrics["yaw_deg"]["max"] < 10.0
     assert metrics["horizontal_cm"]["rms"] < 20.0 and metrics["cross_track_cm"]["rms"] < 15.0

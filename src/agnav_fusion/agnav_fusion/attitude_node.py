@@ -1,15 +1,14 @@
-"""Attitude node (SPEC §6.2): /imu/data_raw + /inclinometer -> /imu/data (orientation + covariance,
-bias-corrected rates). Runs the navigation sensor module's attitude filters (estimator `agnav`: lag/acceleration
-KF; `thesis`: attitude LSM eq 5.1-5.11); yaw is the gyro-integrated (relative) heading with an
-unknown-size variance. Same parameters as nav_sensor_module_node.
+"""Attitude node (SPEC §6.2) for graphs without GNSS: /imu/data_raw + /inclinometer -> /imu/data
+(orientation + covariance, bias-corrected rates); with GNSS, nav_sensor_module_node publishes /imu/data itself.
+Runs the navigation sensor module's attitude filters (estimator `agnav`: lag/acceleration KF; `thesis`:
+attitude LSM eq 5.1-5.11); yaw is the gyro-integrated (relative) heading with an unknown-size variance.
+Same parameters as nav_sensor_module_node.
 """
-from agnav_common.frames import quaternion_from_euler
 from agnav_common.node_main import main_for
 from agnav_common.qos import PUBLISHER_QOS
-from agnav_common.stamps import to_stamp
 from sensor_msgs.msg import Imu
 
-from agnav_fusion.nav_sensor_module_node import NavSensorModuleNode
+from agnav_fusion.nav_sensor_module_node import NavSensorModuleNode, imu_message
 
 UNKNOWN_VARIANCE = 99999.0
 
@@ -27,19 +26,7 @@ class AttitudeNode(NavSensorModuleNode):
         return True
 
     def publish(self, s):
-        msg = Imu()
-        msg.header.stamp = to_stamp(s.t)
-        msg.header.frame_id = self.frames["base"]
-        q = msg.orientation
-        q.x, q.y, q.z, q.w = quaternion_from_euler(*s.rpy)
-        cov = s.pose_cov[3:, 3:].copy()
-        cov[2, 2] = min(cov[2, 2], UNKNOWN_VARIANCE)
-        msg.orientation_covariance = [float(v) for v in cov.ravel()]
-        w = msg.angular_velocity
-        w.x, w.y, w.z = (float(v) for v in s.rates)
-        msg.angular_velocity_covariance = [float(v) for v in s.twist_cov[3:, 3:].ravel()]
-        msg.linear_acceleration_covariance[0] = -1.0
-        self.imu_pub.publish(msg)
+        self.imu_pub.publish(imu_message(s, self.frames["base"], max_yaw_variance=UNKNOWN_VARIANCE))
 
     def mounts_ready(self):
         """The attitude needs only the IMU mount; a missing GNSS mount means a zero lever arm."""

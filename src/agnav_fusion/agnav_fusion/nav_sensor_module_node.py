@@ -42,6 +42,24 @@ def accelerometer_tilt(f):
     return math.atan2(f[1], f[2]), math.atan2(-f[0], math.hypot(f[1], f[2]))
 
 
+def imu_message(s, frame_id, max_yaw_variance=None):
+    """sensor_msgs/Imu of a module state: orientation + covariance, bias-corrected rates, no acceleration."""
+    msg = Imu()
+    msg.header.stamp = to_stamp(s.t)
+    msg.header.frame_id = frame_id
+    q = msg.orientation
+    q.x, q.y, q.z, q.w = quaternion_from_euler(*s.rpy)
+    cov = s.pose_cov[3:, 3:].copy()
+    if max_yaw_variance is not None:
+        cov[2, 2] = min(cov[2, 2], max_yaw_variance)
+    msg.orientation_covariance = [float(v) for v in cov.ravel()]
+    w = msg.angular_velocity
+    w.x, w.y, w.z = (float(v) for v in s.rates)
+    msg.angular_velocity_covariance = [float(v) for v in s.twist_cov[3:, 3:].ravel()]
+    msg.linear_acceleration_covariance[0] = -1.0
+    return msg
+
+
 class NavSensorModuleNode(Node):
     uses_gnss = True
 
@@ -67,6 +85,7 @@ class NavSensorModuleNode(Node):
             self.create_subscription(Inclination, "/inclinometer", self.on_incl, SENSOR_QOS)
         if self.uses_gnss:
             self.odom_pub = self.create_publisher(Odometry, "/odometry/filtered", PUBLISHER_QOS)
+            self.imu_pub = self.create_publisher(Imu, "/imu/data", PUBLISHER_QOS)  # the fused attitude
             self.datum_pub = self.create_publisher(NavSatFix, "/map_datum", LATCHED_QOS)
             self.create_subscription(NavSatFix, "/gnss/fix", self.on_fix, SENSOR_QOS)
             self.create_subscription(TwistWithCovarianceStamped, "/gnss/vel", self.on_vel, SENSOR_QOS)
@@ -190,6 +209,7 @@ class NavSensorModuleNode(Node):
         tw.angular.x, tw.angular.y, tw.angular.z = (float(v) for v in s.rates)
         odom.twist.covariance = [float(v) for v in s.twist_cov.ravel()]
         self.odom_pub.publish(odom)
+        self.imu_pub.publish(imu_message(s, self.frames["base"]))
         if self.publish_tf:
             self.tf_out.send([
                 make_transform(self.frames["map"], self.frames["odom"], stamp, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 1.0)),
