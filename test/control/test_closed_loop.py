@@ -4,8 +4,8 @@ import pytest
 from agnav_control.closed_loop import ClosedLoopSettings, run
 
 
-# the operator drives until the cold-started fusion has converged (heading from the GNSS course), then engages
-RTK = dict(scenario="rtk_straight_fast", manual_distance=40.0, route_length=230.0)
+# the thesis' operator: 3 m manual from standstill, then the engage request (granted once the fusion has converged)
+RTK = dict(scenario="rtk_straight_fast", manual_distance=3.0)
 
 
 def test_rtk_fast_run_stays_on_line():

@@ -6,7 +6,6 @@ from dataclasses import dataclass, field, fields
 
 import numpy as np
 from agnav_drivers.sim import TractorSimulator
-from agnav_drivers.sim.route import straight
 
 from .controllers import CONTROLLERS, make_controller
 from .fusion_adapters import GdsSettings, GdsVwaEstimator, NsmEstimator
@@ -27,7 +26,6 @@ class ClosedLoopSettings:
     line_offset: float = 0.0         # m, desired line left of the route: step response / settling
     control_rate: float = 0.0        # Hz; 0 = at every estimator output (as the node: at the odometry rate)
     gds_speed: float = 0.5           # m/s, v(k) of (2.7) for the GDS system (no odometer; thesis value)
-    route_length: float = 0.0        # m of straight route (0: the scenario's); room to engage once the fusion converged
 
 
 @dataclass
@@ -39,6 +37,7 @@ class ClosedLoopResult:
     steering: np.ndarray    # rad, commanded
     disengaged: str | None  # watchdog reason if it ended the run early
     gnss_error: np.ndarray = field(default_factory=lambda: np.zeros(0))  # m, fix error across the line while engaged
+    engaged_at: float = math.nan  # m travelled when the engage request was granted (the fusion had converged)
 
     @property
     def rms(self) -> float:
@@ -71,8 +70,7 @@ def _controller(settings: ClosedLoopSettings, vehicle):
 
 def run(settings: ClosedLoopSettings) -> ClosedLoopResult:
     """Simulate one engaged straight run and return its trace."""
-    overrides = {"route": straight(settings.route_length)} if settings.route_length > 0 else {}
-    sim = TractorSimulator(settings.scenario, settings.seed, **overrides)
+    sim = TractorSimulator(settings.scenario, settings.seed)
     sc = sim.scenario
     route = np.asarray(sc.route, dtype=float)
     line = GuidanceLine.from_points(route[0], route[-1]).offset(settings.line_offset)
@@ -82,7 +80,7 @@ def run(settings: ClosedLoopSettings) -> ClosedLoopResult:
     controller = _controller(settings, sc.vehicle)
     watchdog = Watchdog()
     period = 1.0 / settings.control_rate if settings.control_rate > 0 else 0.0
-    command, next_control, last_control, start = None, -math.inf, None, None
+    command, next_control, last_control, start, engaged_at = None, -math.inf, None, None, math.nan
     rows, reason, gnss_errors = [], None, []
     while not sim.done:
         for kind, stamp, data in sorted(sim.step(command if watchdog.engaged else None), key=_feed_order):
@@ -105,6 +103,7 @@ def run(settings: ClosedLoopSettings) -> ClosedLoopResult:
                 if not rtk:  # no absolute position: the target line starts where the system engages
                     line = GuidanceLine(odo.x, odo.y, line.yaw)
                 start = score_line.error(truth["x"], truth["y"], truth["yaw"], 0.0).along_track
+                engaged_at = sim.travelled
         if start is not None and not watchdog.engaged:
             reason = watchdog.transitions[-1].reason
             break
@@ -119,7 +118,7 @@ def run(settings: ClosedLoopSettings) -> ClosedLoopResult:
     if not rows:
         raise RuntimeError(f"never engaged in {settings.scenario} ({watchdog.fault})")
     t, along, cross, est_cross, steer = (np.array(c) for c in zip(*rows))
-    return ClosedLoopResult(t, along, cross, est_cross, steer, reason, np.array(gnss_errors))
+    return ClosedLoopResult(t, along, cross, est_cross, steer, reason, np.array(gnss_errors), engaged_at)
 
 
 def _feed_order(sample):

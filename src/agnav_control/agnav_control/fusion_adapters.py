@@ -27,16 +27,20 @@ class Pose:
     sample: OdometrySample
 
 
+FOG_ANGLE_NOISE_RAD = math.radians(0.06)  # JCS-7401A / JG-108FD angle noise per sample (SPEC §11.2)
+
+
 def rtk_fog_settings(lever_flu, incl_lever_flu, imu_rate_hz: float) -> NavSensorModuleSettings:
     """NavSensorModule settings for the RTK + FOG-IMU sensor set (R4-7/8): the FOG IMU's roll/pitch output on
-    /inclinometer has no lag and is not fooled by acceleration, the yaw gyro is FOG-grade. The GNSS course
-    initialises the heading only near full speed: the module removes the lever-arm velocity with the raw rate of
-    one sample, and a FOG's differentiated angle noise (~8 deg/s per 100 Hz sample) times the 3.6 m arm is ~0.5 m/s.
-    These are the nav_sensor_module_node parameters of config/steer.yaml."""
+    /inclinometer has no lag and is not fooled by acceleration, the yaw gyro is FOG-grade. A still FOG's rate per
+    sample is its differentiated angle noise (0.06 deg * sqrt 2 * 100 Hz ~ 0.15 rad/s, not the module's 0.01 rad/s
+    vibratory-gyro default): with that the standstill zero-rate update learns the bias instead of the last samples,
+    and the 3 m chord heading start holds. These are the nav_sensor_module_node parameters of config/steer.yaml."""
     attitude = AttitudeKFSettings(tau=1.0 / imu_rate_hz, gyro_noise=5e-4, bias_walk=1e-5, incl_noise=2e-3)
     return NavSensorModuleSettings(
         estimator="agnav", lever_flu=tuple(lever_flu), incl_lever_flu=tuple(incl_lever_flu),
-        roll_kf=attitude, pitch_kf=attitude, accel_compensation=False, heading_init_speed=3.0,
+        roll_kf=attitude, pitch_kf=attitude, accel_compensation=False,
+        still_rate_sigma=round(FOG_ANGLE_NOISE_RAD * math.sqrt(2.0) * imu_rate_hz, 3),
         ekf=NavEKFSettings(rate_noise=5e-4, bias_walk=2e-5))
 
 

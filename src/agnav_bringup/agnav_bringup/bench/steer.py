@@ -2,11 +2,11 @@
 (TractorSimulator sensor samples -> agnav_fusion NavSensorModule / variable-target VWA -> controller; never truth
 to the controller) and the SteeringNode fail-safe reaction through real rclpy.
 
-Thesis conditions (SPEC §5.3 R4-7/8, §3.6 R2-19): rtk_straight_fast = manual drive until the cold-started fusion
-has converged (40 m; the thesis engaged after 3 m with a warm system) then 150 m at 4.3 m/s,
+Thesis conditions (SPEC §5.3 R4-7/8, §3.6 R2-19): rtk_straight_fast = 3 m manual drive from standstill, engage
+request (granted once the cold-started fusion passes the engage gates) then 150 m at 4.3 m/s,
 RTK 5 Hz, antenna (0, -1.67, 3.23) m, with and without tilt correction, default controller PID (ch. IV);
 gds_straight_slow = 5 m manual then 35 m at 0.5 m/s, GDS + FOG VWA variable target, thesis law (2.6)-(2.7).
-Settling: the RTK run engaged on a line 0.5 m beside the vehicle; distance until |e| stays < 10 cm.
+Settling: the RTK run engaged on a line 0.5 m beside the vehicle; distance until |e| stays < 10 cm (mean over seeds).
 """
 import argparse
 import json
@@ -19,7 +19,7 @@ from agnav_control.watchdog_probe import measure_reaction
 
 from agnav_bringup.graph_config import REPO_ROOT
 
-RTK = dict(scenario="rtk_straight_fast", manual_distance=40.0, auto_distance=150.0, route_length=230.0)
+RTK = dict(scenario="rtk_straight_fast", manual_distance=3.0, auto_distance=150.0)
 GDS = dict(scenario="gds_straight_slow", manual_distance=5.0, auto_distance=35.0)
 DEFAULT = {"rtk": "pid", "gds": "thesis_pi"}
 DOC = REPO_ROOT / "docs" / "benchmarks" / "steer.md"
@@ -34,6 +34,8 @@ def _mean_runs(seeds, **kw):
     return {"rms_cm": float(np.mean([100 * r.rms for r in runs])),
             "max_cm": float(np.max([100 * r.max_abs for r in runs])),
             "distance_m": float(np.mean([r.along[-1] for r in runs])),
+            "engaged_at_m": float(np.mean([r.engaged_at for r in runs])),
+            "per_seed_rms_cm": [100 * r.rms for r in runs],
             # error budget per seed: true = tracking (the controller's cross-track) - estimation error
             "budget": [{"seed": s, "rms_cm": 100 * r.rms, "estimate_rms_cm": _rms_cm(r.estimated - r.cross_track),
                         "estimate_mean_cm": 100 * float(np.mean(r.estimated - r.cross_track)),
@@ -51,8 +53,8 @@ def measure(seeds, watchdog_trials):
         row = {}
         for case, kw in cases.items():
             row[case] = _mean_runs(seeds, controller=name, **kw)
-        offset = run(ClosedLoopSettings(seed=seeds[0], controller=name, line_offset=0.5, **RTK))
-        row["settling_m"] = offset.settling_distance(0.1)
+        offsets = [run(ClosedLoopSettings(seed=s, controller=name, line_offset=0.5, **RTK)) for s in seeds]
+        row["settling_m"] = float(np.mean([r.settling_distance(0.1) for r in offsets]))
         controllers[name] = row
     out["controllers"] = controllers
     for case, key in (("rtk_tilt", "rtk_fast_tilt"), ("rtk_notilt", "rtk_fast_notilt"), ("gds", "gds_slow")):
@@ -64,7 +66,22 @@ def measure(seeds, watchdog_trials):
     return out
 
 
+def _challengers(r):
+    """Controllers that clearly beat the RTK default: lower RTK tilt RMS in the mean and on all but at most one
+    seed, shorter settling and lower no-tilt RMS (the bar for changing the product default)."""
+    c, d = r["controllers"], r["controllers"][DEFAULT["rtk"]]
+    out = []
+    for name, row in c.items():
+        wins = sum(a < b for a, b in zip(row["rtk_tilt"]["per_seed_rms_cm"], d["rtk_tilt"]["per_seed_rms_cm"]))
+        if (name != DEFAULT["rtk"] and row["rtk_tilt"]["rms_cm"] < d["rtk_tilt"]["rms_cm"]
+                and wins >= len(r["seeds"]) - 1 and row["settling_m"] < d["settling_m"]
+                and row["rtk_notilt"]["rms_cm"] < d["rtk_notilt"]["rms_cm"]):
+            out.append(name)
+    return out
+
+
 def table(r):
+    rtk, gds = DEFAULT["rtk"], DEFAULT["gds"]
     lines = [
         "# Steering benchmark (`agnav bench steer`)", "",
         "Offline closed loop: simulated sensor samples -> agnav_fusion NavSensorModule (RTK rows, configured as the live",
@@ -72,26 +89,44 @@ def table(r):
         "base_link cross-track to the desired line. "
         f"Seeds {r['seeds']} (RMS = mean over seeds, max = max over seeds).", "",
         "| run | thesis RMS / max (cm) | agnav RMS / max (cm) | goal |", "|---|---|---|---|",
-        f"| RTK 4.3 m/s, tilt-corrected (PID) | 3.8 / 9.6 | {r['rtk_fast_tilt_rms_cm']:.2f} / {r['rtk_fast_tilt_max_cm']:.2f} | RMS ≤ 2.5 |",
-        f"| RTK 4.3 m/s, no tilt correction (PID) | 10.4 / 25 | {r['rtk_fast_notilt_rms_cm']:.2f} / {r['rtk_fast_notilt_max_cm']:.2f} | — |",
-        f"| GDS + FOG VWA 0.5 m/s, 35 m (thesis law) | 6.4 / 11.4 | {r['gds_slow_rms_cm']:.2f} / {r['gds_slow_max_cm']:.2f} | RMS ≤ 5 |",
+        f"| RTK 4.3 m/s, tilt-corrected ({rtk}) | 3.8 / 9.6 | {r['rtk_fast_tilt_rms_cm']:.2f} / {r['rtk_fast_tilt_max_cm']:.2f} | RMS ≤ 2.5 |",
+        f"| RTK 4.3 m/s, no tilt correction ({rtk}) | 10.4 / 25 | {r['rtk_fast_notilt_rms_cm']:.2f} / {r['rtk_fast_notilt_max_cm']:.2f} | — |",
+        f"| GDS + FOG VWA 0.5 m/s, 35 m ({gds}) | 6.4 / 11.4 | {r['gds_slow_rms_cm']:.2f} / {r['gds_slow_max_cm']:.2f} | RMS ≤ 5 |",
         f"| watchdog: last odometry -> neutral command (rclpy) | — | {r['watchdog_reaction_ms']:.0f} ms mean, "
         f"{r['watchdog_reaction_max_ms']:.0f} ms max | ≤ 200 ms |", "",
-        "Per controller (RMS / max cm; settling = metres after engaging 0.5 m off the line until |e| < 10 cm):", "",
-        "| controller | RTK tilt | RTK no tilt | GDS VWA | settling (m) |", "|---|---|---|---|---|"]
+        "Per controller (RMS / max cm; settling = metres after engaging 0.5 m off the line until |e| < 10 cm, "
+        "mean over seeds):", "",
+        "| controller | RTK tilt | RTK tilt RMS per seed | RTK no tilt | GDS VWA | settling (m) |",
+        "|---|---|---|---|---|---|"]
     for name, row in r["controllers"].items():
         cells = [f"{row[c]['rms_cm']:.2f} / {row[c]['max_cm']:.2f}" for c in ("rtk_tilt", "rtk_notilt", "gds")]
-        lines.append(f"| {name} | " + " | ".join(cells) + f" | {row['settling_m']:.1f} |")
-    lines += ["", "Error budget of the default RTK tilt-corrected run (cm): true cross-track = controller's cross-track "
+        seeds = ", ".join(f"{v:.2f}" for v in row["rtk_tilt"]["per_seed_rms_cm"])
+        lines.append(f"| {name} | {cells[0]} | {seeds} | {cells[1]} | {cells[2]} | {row['settling_m']:.1f} |")
+    challengers = _challengers(r)
+    lines += ["", f"Default RTK controller: **{rtk}** (product decision). It changes only if another controller is "
+              "better on RTK tilt RMS (mean, and on all seeds but one), settling and RTK no-tilt RMS together; "
+              + (f"on these seeds that holds for {', '.join(challengers)}: revisit the default."
+                 if challengers else "on these seeds none is, so PID stays (its gap to the best controller is inside "
+                 "the seed-to-seed spread of the GNSS bias floor below).")]
+    lines += ["", f"Error budget of the default RTK tilt-corrected run (cm): true cross-track = controller's cross-track "
               "(tracking) minus the estimate's error; the GNSS column is the fix error across the line while engaged.", "",
               "| seed | true RMS | estimate error RMS / mean | tracking RMS | GNSS lateral RMS / mean |", "|---|---|---|---|---|"]
-    for b in r["controllers"][DEFAULT["rtk"]]["rtk_tilt"]["budget"]:
+    for b in r["controllers"][rtk]["rtk_tilt"]["budget"]:
         lines.append(f"| {b['seed']} | {b['rms_cm']:.2f} | {b['estimate_rms_cm']:.2f} / {b['estimate_mean_cm']:+.2f} | "
                      f"{b['tracking_rms_cm']:.2f} | {b['gnss_lateral_rms_cm']:.2f} / {b['gnss_lateral_mean_cm']:+.2f} |")
-    lines += ["", "Reproduce: `agnav bench steer --json --write-docs`. The RTK rows engage after a 40 m manual drive: "
-              "the module starts cold and takes its heading from the GNSS course at >= 3 m/s (the raw FOG rate makes "
-              "the lever-arm velocity too noisy below), and the steering node's engage gate waits for position std "
-              "<= 5 cm and yaw std <= 0.01 rad; the route is extended to 230 m so that 150 m are scored at 4.3 m/s.",
+    engaged = r["controllers"][rtk]["rtk_tilt"]["engaged_at_m"]
+    lines += ["", "Reproduce: `agnav bench steer --json --write-docs [--seeds N]`.",
+              "RTK start as the thesis' operator: 3 m manual from standstill, then the engage request; the steering "
+              "node's engage gate (position std <= 5 cm, yaw std <= 0.01 rad) grants it at "
+              f"{engaged:.1f} m travelled (mean), 150 m are scored on the scenario's 170 m route. The cold-started "
+              "NavSensorModule takes its heading from the 3 m chord between moving fixes (module default "
+              "heading_init_speed 0.3 m/s) and its lever-arm velocity from rates averaged over 0.2 s, so the former "
+              "40 m drive at >= 3 m/s on a 230 m route is gone. One setting stays in "
+              "agnav_control.fusion_adapters.rtk_fog_settings (= config/steer.yaml): still_rate_sigma = 0.148 rad/s, "
+              "the FOG's per-sample rate noise (differentiated 0.06 deg angle noise at 100 Hz). With the module's "
+              "0.01 rad/s default (a vibratory gyro's) the standstill zero-rate update followed the last samples "
+              "(seed 4 learnt -0.019 rad/s at the moment of moving off), the heading then drifted ~1 deg for 25 m "
+              "while its std said 0.2 deg, and the 3 m start measured 4.04 cm RMS (seed 4: 6.03 / 20.9 cm) with PID.",
               "The simulated 7400MSi RTK fix carries a slow Gauss-Markov bias (sigma 2 cm, tau 60 s): its lateral mean "
               "over a 35 s run is invisible to every estimator and is the floor of the RTK rows (estimate error mean "
               "follows the GNSS lateral mean above).", ""]
@@ -102,7 +137,7 @@ def main(argv=None):
     ap = argparse.ArgumentParser(prog="agnav bench steer", description=__doc__.splitlines()[0])
     ap.add_argument("--json", action="store_true", help="print one JSON object on the last line")
     ap.add_argument("--write-docs", action="store_true", help=f"write the table to {DOC}")
-    ap.add_argument("--seeds", type=int, default=3, help="simulator seeds per case")
+    ap.add_argument("--seeds", type=int, default=5, help="simulator seeds 1..N per case")
     ap.add_argument("--watchdog-trials", type=int, default=5)
     args = ap.parse_args(argv)
     result = measure(list(range(1, args.seeds + 1)), args.watchdog_trials)
