@@ -193,6 +193,13 @@ def markdown(res, eval_line=None):
     lines += ["", "INS innovation statistics (mean NIS, 3 dof each, ≈3 when consistent): " + ", ".join(
         f"{r['scenario']} position {r['ins']['nis_position']:.2f} / velocity {r['ins']['nis_velocity']:.2f}"
         for r in res.get("sim", []))]
+    lines += ["", "Reading: the module's drift and DGPS alignment profit from its ground-vehicle model (dead reckoning "
+              "along the body x axis with the last speed, heading from the GNSS course); the INS is free-inertial "
+              "in outages (MEMS accelerometer bias: drift grows with the square of the outage length) and observes "
+              "heading only through accelerations (U-turns), so its DGPS alignment is slow and its common window "
+              "short. A non-holonomic pseudo-measurement (zero lateral/vertical body velocity) as a further "
+              "pluggable model is the expected remedy for both; not implemented yet. The module rows depend on "
+              "`agnav_fusion.nav_sensor_module` at the time of the run."]
     if eval_line:
         lines += ["", "## Node graph on the bag", "",
                   "`agnav run ins --record /tmp/ins_out` (ins_node on bags/mems_field, initial yaw guess 0 = east "
