@@ -38,6 +38,11 @@ class TfBuffer:
             return np.zeros(3), np.array([0.0, 0.0, 0.0, 1.0])
         return self._edges.get((parent, child))
 
+    def lookup_mounts(self, parent, *children):
+        """[lookup(parent, child) for each child], or None until every one of them is known."""
+        found = [self.lookup(parent, child) for child in children]
+        return None if any(f is None for f in found) else found
+
 
 class StaticTransformPublisher:
     """Publishes static transforms on /tf_static (transient-local), accumulating across calls."""

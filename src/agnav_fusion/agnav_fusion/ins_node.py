@@ -18,7 +18,7 @@ from agnav_common.geodesy import LocalTangentPlane
 from agnav_common.node_main import main_for
 from agnav_common.qos import LATCHED_QOS, PUBLISHER_QOS, SENSOR_QOS
 from agnav_common.stamps import StampGuard, to_sec, to_stamp
-from agnav_common.tf import TfBuffer, TransformBroadcaster, make_transform
+from agnav_common.tf import TfBuffer, TransformBroadcaster
 from agnav_msgs.msg import GnssStatus
 from geometry_msgs.msg import TwistWithCovarianceStamped
 from nav_msgs.msg import Odometry
@@ -28,6 +28,7 @@ from sensor_msgs.msg import Imu, NavSatFix, NavSatStatus
 
 from agnav_fusion.ins import GnssSample, InsEkf, InsEkfSettings
 from agnav_fusion.ins.frames import Mounts, base_link_state
+from agnav_fusion.navigation_output import map_datum_message, pose_transforms
 
 EPOCH_MATCH_S = 0.005   # a /gnss/vel within this of a fix epoch belongs to it
 NOT_PARAMETERS = {"lever_gnss_frd", "initial_heading", "initial_heading_sigma"}  # from TF / REP-103 parameters
@@ -92,11 +93,11 @@ class InsNode(Node):
         """True once the mounts are known from TF and the filter exists."""
         if self.ekf is not None:
             return True
-        imu = self.tf.lookup(self.frames["base"], self.frames["imu"])
-        gnss = self.tf.lookup(self.frames["base"], self.frames["gnss"])
-        if imu is None or gnss is None:
+        mounts = self.tf.lookup_mounts(self.frames["base"], self.frames["imu"], self.frames["gnss"])
+        if mounts is None:
             self.counters["missing_tf"] += 1
             return False
+        imu, gnss = mounts
         self.mounts = Mounts.from_tf(imu[0], Rotation.from_quat(imu[1]).as_matrix(), gnss[0])
         self.settings.lever_gnss_frd = tuple(self.mounts.lever_gnss_frd)
         self.ekf = InsEkf(self.settings)
@@ -104,13 +105,7 @@ class InsNode(Node):
 
     def set_datum(self, lat, lon, alt):
         self.plane = LocalTangentPlane(float(lat), float(lon), float(alt))
-        msg = NavSatFix()
-        msg.header.frame_id = self.frames["map"]
-        msg.header.stamp = self.get_clock().now().to_msg()
-        msg.latitude, msg.longitude, msg.altitude = float(lat), float(lon), float(alt)
-        msg.status.status = NavSatStatus.STATUS_FIX
-        msg.position_covariance_type = NavSatFix.COVARIANCE_TYPE_UNKNOWN
-        self.datum_pub.publish(msg)
+        self.datum_pub.publish(map_datum_message(lat, lon, alt, self.frames["map"], self.get_clock().now().to_msg()))
 
     # ---- inputs ---------------------------------------------------------------------------------------
     def on_imu(self, msg):
@@ -213,9 +208,7 @@ class InsNode(Node):
         imu.linear_acceleration_covariance[0] = -1.0
         self.imu_pub.publish(imu)
         if self.publish_tf:
-            self.tf_out.send([
-                make_transform(self.frames["map"], self.frames["odom"], stamp, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 1.0)),
-                make_transform(self.frames["odom"], self.frames["base"], stamp, s.position, quat)])
+            self.tf_out.send(pose_transforms(self.frames, stamp, s.position, quat))
         self.counters["published"] += 1
 
     def check_inputs(self):

@@ -22,7 +22,7 @@ from agnav_common.geodesy import LocalTangentPlane
 from agnav_common.node_main import main_for
 from agnav_common.qos import LATCHED_QOS, PUBLISHER_QOS, SENSOR_QOS
 from agnav_common.stamps import to_sec, to_stamp
-from agnav_common.tf import TfBuffer, TransformBroadcaster, make_transform
+from agnav_common.tf import TfBuffer, TransformBroadcaster
 from agnav_msgs.msg import Inclination
 from geometry_msgs.msg import TwistWithCovarianceStamped
 from nav_msgs.msg import Odometry
@@ -32,6 +32,7 @@ from sensor_msgs.msg import Imu, NavSatFix, NavSatStatus
 
 from agnav_fusion.nav_sensor_module import NavSensorModule
 from agnav_fusion.nav_settings import declare_settings
+from agnav_fusion.navigation_output import map_datum_message, pose_transforms
 
 VEL_MATCH_S = 0.1  # s, a /gnss/vel within this of a fix epoch is fused with it
 FIX_HISTORY = 10  # fixes kept for the fix-difference velocity
@@ -107,11 +108,11 @@ class NavSensorModuleNode(Node):
     def mounts_ready(self):
         if self.imu_rotation is not None:
             return True
-        imu = self.tf.lookup(self.frames["base"], self.frames["imu"])
-        gnss = self.tf.lookup(self.frames["base"], self.frames["gnss"])
-        if imu is None or gnss is None:
+        mounts = self.tf.lookup_mounts(self.frames["base"], self.frames["imu"], self.frames["gnss"])
+        if mounts is None:
             self.missing_tf += 1
             return False
+        imu, gnss = mounts
         incl = self.tf.lookup(self.frames["base"], self.frames["inclinometer"])
         self.imu_rotation = Rotation.from_quat(imu[1]).as_matrix()
         self.nsm.set_mounts(gnss[0], imu[0] if incl is None else incl[0])
@@ -119,13 +120,7 @@ class NavSensorModuleNode(Node):
 
     def set_datum(self, lat, lon, alt, stamp=None):
         self.plane = LocalTangentPlane(float(lat), float(lon), float(alt))
-        msg = NavSatFix()
-        msg.header.frame_id = self.frames["map"]
-        msg.header.stamp = stamp or self.get_clock().now().to_msg()
-        msg.latitude, msg.longitude, msg.altitude = float(lat), float(lon), float(alt)
-        msg.status.status = NavSatStatus.STATUS_FIX
-        msg.position_covariance_type = NavSatFix.COVARIANCE_TYPE_UNKNOWN
-        self.datum_pub.publish(msg)
+        self.datum_pub.publish(map_datum_message(lat, lon, alt, self.frames["map"], stamp or self.get_clock().now().to_msg()))
 
     # ---- inputs ---------------------------------------------------------------------------------------
     def on_imu(self, msg):
@@ -211,9 +206,7 @@ class NavSensorModuleNode(Node):
         self.odom_pub.publish(odom)
         self.imu_pub.publish(imu_message(s, self.frames["base"]))
         if self.publish_tf:
-            self.tf_out.send([
-                make_transform(self.frames["map"], self.frames["odom"], stamp, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 1.0)),
-                make_transform(self.frames["odom"], self.frames["base"], stamp, s.position, quat)])
+            self.tf_out.send(pose_transforms(self.frames, stamp, s.position, quat))
 
     def check_inputs(self):
         c = dict(self.nsm.counters, missing_tf=self.missing_tf, no_fix=self.no_fix)

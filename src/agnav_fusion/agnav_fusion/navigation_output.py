@@ -1,0 +1,23 @@
+"""Outputs every agnav navigation node shares: the /map_datum message and the map->odom->base_link transforms."""
+from sensor_msgs.msg import NavSatFix, NavSatStatus
+
+from agnav_common.tf import make_transform
+
+IDENTITY = (0.0, 0.0, 0.0, 1.0)
+
+
+def map_datum_message(lat, lon, alt, frame_id, stamp):
+    """NavSatFix of the geodetic origin of `map` (INTERFACES /map_datum)."""
+    msg = NavSatFix()
+    msg.header.frame_id = frame_id
+    msg.header.stamp = stamp
+    msg.latitude, msg.longitude, msg.altitude = float(lat), float(lon), float(alt)
+    msg.status.status = NavSatStatus.STATUS_FIX
+    msg.position_covariance_type = NavSatFix.COVARIANCE_TYPE_UNKNOWN
+    return msg
+
+
+def pose_transforms(frames, stamp, position, quat):
+    """map->odom (identity: no discrete jumps are split off) and odom->base_link at the fused pose."""
+    return [make_transform(frames["map"], frames["odom"], stamp, (0.0, 0.0, 0.0), IDENTITY),
+            make_transform(frames["odom"], frames["base"], stamp, position, quat)]
