@@ -7,6 +7,7 @@ COMMANDS = {
     "bench": (None, "agnav bench NAME [--json]: run a benchmark (see `agnav bench --list`)"),
     "sim": ("agnav_drivers.sim.cli", "simulate a scenario into a bag"),
     "eval": ("agnav_bringup.evaluate", "score a recorded output against ground truth"),
+    "calibrate": ("agnav_bringup.calibrate", "tilt-sensor zeros from a recorded park / turn round / park drive"),
 }
 
 
@@ -25,7 +26,7 @@ def bench(argv):
 def main(argv=None):
     argv = sys.argv[1:] if argv is None else argv
     if not argv or argv[0] in ("-h", "--help") or argv[0] not in COMMANDS:
-        print("usage: agnav COMMAND [...]\n" + "\n".join(f"  {k:6s} {v[1]}" for k, v in COMMANDS.items()))
+        print("usage: agnav COMMAND [...]\n" + "\n".join(f"  {k:9s} {v[1]}" for k, v in COMMANDS.items()))
         return 0 if argv and argv[0] in ("-h", "--help") else 2
     if argv[0] == "bench":
         return bench(argv[1:])

@@ -29,11 +29,15 @@ class NavSensorModuleSettings:
     roll_lsm: AttitudeLSMSettings = field(default_factory=lambda: AttitudeLSMSettings(window=270))
     pitch_lsm: AttitudeLSMSettings = field(default_factory=lambda: AttitudeLSMSettings(window=200))
     roll_kf: AttitudeKFSettings = field(default_factory=AttitudeKFSettings)
-    pitch_kf: AttitudeKFSettings = field(default_factory=AttitudeKFSettings)
+    # pitch: the start/stop acceleration left after compensation (from 1 Hz GNSS speed) is a coloured error of
+    # seconds, so the pitch inclinometer is trusted less and averaged longer (tuned on seeds 4-5; bench: 1-3)
+    pitch_kf: AttitudeKFSettings = field(default_factory=lambda: AttitudeKFSettings(bias_walk=2.0e-4,
+                                                                                    incl_noise=0.03))
     heading: GnssGyroHeadingSettings = field(default_factory=GnssGyroHeadingSettings)
     dead_reckoning: DeadReckoningSettings = field(default_factory=DeadReckoningSettings)
     ekf: NavEKFSettings = field(default_factory=NavEKFSettings)
     incl_lever_flu: tuple = (0.0, 0.0, 0.0)   # m, base_link -> inclinometer_link translation (from TF)
+    incl_zero_deg: tuple = (0.0, 0.0)         # deg, tilt (roll, pitch) read at true level (agnav calibrate tilt)
     accel_compensation: bool = True           # agnav: remove the modelled kinematic acceleration from the inclinometer
     use_gnss_velocity: bool = True            # agnav: also fuse /gnss/vel (course and speed)
     velocity_sigma: float = 0.05              # m/s, 1-sigma per axis of GNSS velocity
@@ -142,7 +146,8 @@ class NavSensorModule:
             self.counters["incl_bad_stamp"] += 1
             return False
         self._last_incl_t = t
-        self._incl = (t, roll, pitch)
+        zero_roll, zero_pitch = (math.radians(v) for v in self.settings.incl_zero_deg)
+        self._incl = (t, roll - zero_roll, pitch - zero_pitch)
         return True
 
     def gnss(self, t, antenna_enu, cov, vel_enu=None):

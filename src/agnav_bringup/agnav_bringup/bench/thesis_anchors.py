@@ -1,8 +1,9 @@
 """Open AHRS anchors and the offline RTS lower bound for `agnav bench thesis` (same simulated runs).
 
-Anchors run on the run's gyros plus a simulated accelerometer (`simulate(..., accel=SERVO_ACCEL)`: the other
-streams are identical for the same seed): ahrs.filters.EKF and Madgwick (gyro + accelerometer; without a
-magnetometer their heading is relative: initialised with the true first attitude), imufusion.Ahrs (xio Fusion;
+Anchors run on the module's own sensors: the gyros, and the two inclinometers (zero-corrected like the module's)
+turned into the specific force a level-referenced accelerometer would read, g (-sin θ, sin φ cos θ, cos φ cos θ):
+ahrs.filters.EKF and Madgwick (gyro + accelerometer; without a magnetometer their heading is relative: initialised
+with the true first attitude), imufusion.Ahrs (xio Fusion;
 absolute heading from the GNSS course over ground through update_external_heading while faster than 0.3 m/s,
 gyro offset from its own stationary Bias estimator). The smoother replays the agnav module with GNSS fed at its
 epoch (offline: no latency) and runs kalman.smooth_log over the attitude KFs and the navigation EKF.
@@ -30,18 +31,20 @@ def _euler(q_wxyz):
     return euler_from_quaternion(x, y, z, w)
 
 
-def _base_imu(run):
-    """Gyro (rad/s) and accelerometer (m/s^2) rotated into base_link."""
+def _base_imu(run, zero):
+    """Gyro (rad/s) rotated into base_link and the inclinometer specific force (m/s^2), zero-corrected."""
     from agnav_bringup.bench.thesis import _mount_rotation
 
     _, r = _mount_rotation(run, "imu_link")
-    return run.imu.gyro @ r.T, run.imu.accel @ r.T
+    roll, pitch = run.incl.roll - zero[0], run.incl.pitch - zero[1]
+    force = GRAVITY * np.column_stack([-np.sin(pitch), np.sin(roll) * np.cos(pitch), np.cos(roll) * np.cos(pitch)])
+    return run.imu.gyro @ r.T, force
 
 
-def _ahrs_filter(run, name):
+def _ahrs_filter(run, zero, name):
     from ahrs.filters import EKF, Madgwick
 
-    gyro, acc = _base_imu(run)
+    gyro, acc = _base_imu(run, zero)
     rate = run.imu_rate_hz
     tr = run.truth
     q = _wxyz(tr.roll[0], tr.pitch[0], tr.yaw[0])
@@ -60,10 +63,10 @@ def _ahrs_filter(run, name):
     return dict(roll=out[:, 0], pitch=out[:, 1], yaw=out[:, 2], us=us)
 
 
-def _imufusion(run):
+def _imufusion(run, zero):
     import imufusion
 
-    gyro, acc = _base_imu(run)
+    gyro, acc = _base_imu(run, zero)
     rate = run.imu_rate_hz
     settings = imufusion.AhrsSettings()
     settings.convention = imufusion.CONVENTION_ENU
@@ -96,10 +99,11 @@ def _imufusion(run):
     return dict(roll=out[:, 0], pitch=out[:, 1], yaw=out[:, 2], us=us)
 
 
-def anchors(run):
-    """{name: estimate dict (roll, pitch, yaw REP-103 rad at IMU epochs, us per sample)} for a run with accel."""
-    return {"ahrs EKF": _ahrs_filter(run, "ahrs EKF"), "ahrs Madgwick": _ahrs_filter(run, "ahrs Madgwick"),
-            "imufusion": _imufusion(run)}
+def anchors(run, zero):
+    """{name: estimate dict (roll, pitch, yaw REP-103 rad at IMU epochs, us per sample)}; zero: inclinometer
+    (roll, pitch) zeros in rad."""
+    return {"ahrs EKF": _ahrs_filter(run, zero, "ahrs EKF"), "ahrs Madgwick": _ahrs_filter(run, zero, "ahrs Madgwick"),
+            "imufusion": _imufusion(run, zero)}
 
 
 def _tail(filtered, smoothed, where=None):
@@ -112,14 +116,14 @@ def _tail(filtered, smoothed, where=None):
     return out
 
 
-def smoother(run):
+def smoother(run, **overrides):
     """RTS lower bound: the agnav module replayed offline (GNSS at its epoch), then smoothed; estimate dict."""
     from agnav_bringup.bench.thesis import run_module
 
     def enable_logs(nsm):
         nsm.roll_filter.log, nsm.pitch_filter.log, nsm.ekf.log = [], [], []
 
-    est = run_module(run, "agnav", arrival=run.gnss.t, prepare=enable_logs)
+    est = run_module(run, "agnav", arrival=run.gnss.t, prepare=enable_logs, **overrides)
     nsm = est["module"]
     roll = kalman.smooth_log(nsm.roll_filter.log)[0][:, 0]
     pitch = kalman.smooth_log(nsm.pitch_filter.log)[0][:, 0]

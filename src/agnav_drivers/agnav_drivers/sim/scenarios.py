@@ -158,6 +158,14 @@ def _build():
         Scenario("rough_road", "R5-7..10: ≈50 m artificial rough road at 0.8 m/s, random ≈±5° roll/pitch",
                  route=straight(50.0), terrain=TerrainParams(rough_rms_deg=3.0, rough_wavelength_m=(1.5, 4.0)),
                  gyro=env05f((0.126, 0.178, -0.25)), **ch5),
+        Scenario("tilt_calibration", "Set-up of the Ch. V package: parked 30 s on a 3° concrete pad, out 12 m, "
+                 "U-turn, back 12 m and parked 30 s facing the other way (two-way tilt zero calibration)",
+                 route=field_passes(12.0, 8.0, 2),
+                 driver=DriverParams(speed_mps=0.8, accel_mps2=0.3, start_standstill_s=30.0, end_standstill_s=30.0),
+                 vehicle=SMALL_TRACTOR, gnss=STARFIRE,
+                 terrain=TerrainParams(rough_rms_deg=0.05, rough_wavelength_m=(1.0, 4.0), slope_deg=3.0,
+                                       slope_axis_yaw=math.radians(60.0), slope_ramp_m=(-1e4, -1e4 + 1.0)),
+                 gyro=env05f((0.1, -0.1, 0.05))),
         Scenario("sleeper_tilt", "R4-6: manual straight, left wheels climb onto a row of 15 cm sleepers after 2 m (roll ≈6°), RT-2 4 Hz, "
                  "antenna (a, b, h) = (0, 0, 1.751) m, JCS-7401A attitude",
                  route=straight(30.0), driver=DriverParams(speed_mps=0.5, accel_mps2=0.3), vehicle=SMALL_TRACTOR,
