@@ -25,5 +25,6 @@ def test_cold_start_heading_holds_once_the_engage_gate_opens(seed):
             errors.append(abs(math.remainder(pose.sample.yaw - sim.truth_state()["yaw"], 2 * math.pi)))
     assert opened_at is not None and opened_at < 10.0
     # the standstill-learnt FOG bias holds: no heading drift after engaging (the module's vibratory-gyro default
-    # still_rate_sigma learns the last noisy samples instead and drifts > 1 deg here)
-    assert max(errors) < math.radians(0.6)
+    # still_rate_sigma learns the last noisy samples instead and reaches 1.0 / 1.5 deg here); the gate opens at
+    # 1 sigma = 0.57 deg, so 0.9 deg (1.6 sigma) is the bound for an unbiased heading
+    assert max(errors) < math.radians(0.9)

@@ -93,6 +93,14 @@ class NavEKF:
         y, S, _ = kalman.innovation(self.x, self.P, np.array([rate]), H, R)
         return y, S, H, R
 
+    def speed_innovation(self, speed, var):
+        """(y, S, H, R) of a ground-speed measurement (m/s) with variance var: no heading needed."""
+        H = np.zeros((1, 6))
+        H[0, IV] = 1.0
+        R = np.array([[var]])
+        y, S, _ = kalman.innovation(self.x, self.P, np.array([speed]), H, R)
+        return y, S, H, R
+
     def velocity_innovation(self, v_en, R):
         """(y, S, d2, H) of a horizontal velocity (east, north) measurement of the reference point."""
         phi, v = self.x[IPHI], self.x[IV]

@@ -308,6 +308,8 @@ class NavSensorModule:
             for i, var in ((IPHI, math.pi ** 2), (IB, ekf.P[IB, IB])):  # no heading yet: decouple
                 ekf.P[i, :] = ekf.P[:, i] = 0.0
                 ekf.P[i, i] = var
+            if speed is not None:  # the speed needs no heading (decoupled here): it carries the start of motion
+                ekf.update(*ekf.speed_innovation(0.0 if self._still else speed, s.velocity_sigma ** 2))
             chord = self._chord_course(xy, snap.raw_heading, speed or 0.0)
             if chord is not None:  # absolute heading from the chord between moving fixes
                 ekf.x[IPHI] = chord
@@ -328,7 +330,9 @@ class NavSensorModule:
                 ekf.P[:2, :2] += np.outer(y, y)
                 y, S, d2, H = ekf.position_innovation(xy, R)
             ekf.update(y, S, H, R)
-            if s.use_gnss_velocity and v_ref is not None:
+            if self._still:  # standing: zero speed (a velocity's noise has no direction to fuse)
+                ekf.update(*ekf.speed_innovation(0.0, s.velocity_sigma ** 2))
+            elif s.use_gnss_velocity and v_ref is not None:
                 Rv = s.velocity_sigma ** 2 * np.eye(2)
                 y, S, d2, H = ekf.velocity_innovation(v_ref, Rv)
                 if d2 <= s.gate_chi2:

@@ -214,7 +214,8 @@ def tilt_rows(seed):
                                                   roll_ref[i])[:2] + tilt_correction.antenna_offset(
             lever, float(heading_from_yaw(yaw_ref[i])), *level[:2])[:2] for i in range(len(g.t))])
         errs = {"GNSS raw": np.hypot(*(enu[:, :2] - base).T) * 100,
-                "tilt-corrected (reference attitude)": np.hypot(*(fixed - base).T) * 100}
+                "tilt-corrected (reference attitude)": np.hypot(*(fixed - base).T) * 100,
+                "floor: receiver error at the antenna": np.hypot(*(g.enu - g.truth_enu)[:, :2].T) * 100}
         moving = _at(run, g.t, tr.speed) > 0.1
         for metric, (raw_t, cor_t) in thesis.items():
             fn = {"mean": np.mean, "max": np.max, "rms": rms}[metric]
