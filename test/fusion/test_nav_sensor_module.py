@@ -4,7 +4,7 @@ import math
 import numpy as np
 import pytest
 
-from agnav_fusion.nav_ekf import IB
+from agnav_fusion.nav_ekf import IB, IV
 from agnav_fusion.nav_sensor_module import NavSensorModule, NavSensorModuleSettings
 
 RATE = 50.0
@@ -132,3 +132,26 @@ def test_standstill_learns_the_yaw_gyro_offset():
     # the EKF bias is of the clockwise rate (thesis convention): -offset
     assert nsm.ekf.x[IB] == pytest.approx(-offset, abs=1e-3)
     assert nsm.state().rates[2] == pytest.approx(0.0, abs=0.01)
+
+
+def test_speed_is_fused_before_the_heading_is_known():
+    """From the first fixes the module dead-reckons at the GNSS speed, before the chord gives the heading."""
+    nsm, out = drive(seconds=20.0)
+    early = [s for t, s, *_ in out if 12.0 <= t < 13.0]
+    assert not early[0].heading_valid
+    assert nsm.ekf.x is not None and abs(nsm.ekf.x[IV] - 1.0) < 0.1
+
+
+def test_standing_still_does_not_creep():
+    """Fixes at rest: the zero-speed update holds the position between fixes."""
+    rng = np.random.default_rng(5)
+    nsm = NavSensorModule(NavSensorModuleSettings(lever_flu=LEVER))
+    track = []
+    for k in range(1, 20 * int(RATE)):
+        t = 10.0 + k / RATE
+        if k % int(RATE) == 0:
+            nsm.gnss(t, rng.normal(0, 0.02, 3), np.diag([4e-4, 4e-4, 1e-3]), rng.normal(0, 0.03, 3))
+        nsm.inclinometer(t, 0.0, 0.0)
+        track.append(nsm.imu(t, rng.normal(0, 0.004, 3)).position[:2].copy())
+    steps = np.linalg.norm(np.diff(np.array(track[-5 * int(RATE):]), axis=0), axis=1)
+    assert np.median(steps) * RATE < 0.005  # under 5 mm/s of creep between fixes (the speed's noise: 3 cm/s)

@@ -94,12 +94,20 @@ class NavEKF:
         return y, S, H, R
 
     def speed_innovation(self, speed, var):
-        """(y, S, H, R) of a ground-speed measurement (m/s) with variance var: no heading needed."""
+        """(y, S, d2, H, R) of a ground-speed measurement (m/s) with variance var: no heading needed."""
         H = np.zeros((1, 6))
         H[0, IV] = 1.0
         R = np.array([[var]])
-        y, S, _ = kalman.innovation(self.x, self.P, np.array([speed]), H, R)
-        return y, S, H, R
+        y, S, d2 = kalman.innovation(self.x, self.P, np.array([speed]), H, R)
+        return y, S, d2, H, R
+
+    def standstill_innovation(self, var):
+        """(y, S, d2, H, R) of standing still: speed 0 (variance var) and acceleration 0 (var per s^2)."""
+        H = np.zeros((2, 6))
+        H[0, IV] = H[1, IA] = 1.0
+        R = var * np.eye(2)
+        y, S, d2 = kalman.innovation(self.x, self.P, np.zeros(2), H, R)
+        return y, S, d2, H, R
 
     def velocity_innovation(self, v_en, R):
         """(y, S, d2, H) of a horizontal velocity (east, north) measurement of the reference point."""

@@ -46,6 +46,7 @@ class NavSensorModuleSettings:
     heading_init_speed: float = 0.3           # m/s of GNSS speed before the absolute heading is initialised
     heading_init_distance: float = 3.0        # m of chord between moving fixes that initialises the heading
     stationary_speed: float = 0.05            # m/s: slower fixes mark the vehicle still (yaw rate zero: gyro bias)
+    standstill_sigma: float = 0.005           # m/s (and m/s^2): speed and acceleration of a vehicle at rest
     lever_rate_window: float = 0.2            # s of body rates averaged for the antenna lever-arm velocity
     still_rate_sigma: float = 0.01            # rad/s per IMU sample of a still gyro (ENV-05F 0.25 deg/s, 10 Hz band)
     motion_bias_sigma: float = 0.003          # rad/s, yaw-gyro bias change once moving (SPEC §11.4 motion biases)
@@ -150,8 +151,9 @@ class NavSensorModule:
         self._incl = (t, roll - zero_roll, pitch - zero_pitch)
         return True
 
-    def gnss(self, t, antenna_enu, cov, vel_enu=None):
-        """Antenna fix (map ENU m, 3x3 covariance m^2, optional ENU velocity m/s) stamped at its epoch."""
+    def gnss(self, t, antenna_enu, cov, vel_enu=None, vel_var=None):
+        """Antenna fix (map ENU m, 3x3 covariance m^2, optional ENU velocity m/s with its per-axis horizontal
+        variance m^2/s^2, at least velocity_sigma^2; default velocity_sigma^2) stamped at its epoch."""
         if not _finite(t, antenna_enu, cov) or (vel_enu is not None and not _finite(vel_enu)):
             self.counters["gnss_bad_value"] += 1
             return False
@@ -163,8 +165,10 @@ class NavSensorModule:
             return False
         self._last_gnss_t = t
         self.counters["gnss"] += 1
+        floor = self.settings.velocity_sigma ** 2
+        vel_var = floor if vel_var is None or not _finite(vel_var) else max(float(vel_var), floor)
         self._pending_gnss.append((t, np.asarray(antenna_enu, float), np.asarray(cov, float),
-                                   None if vel_enu is None else np.asarray(vel_enu, float)))
+                                   None if vel_enu is None else np.asarray(vel_enu, float), vel_var))
         self._drain_gnss()
         return True
 
@@ -257,7 +261,7 @@ class NavSensorModule:
             self._process_fix(*fix)
 
     # ---- GNSS fix at its epoch ----------------------------------------------------------------------------
-    def _process_fix(self, t, antenna, cov, vel):
+    def _process_fix(self, t, antenna, cov, vel, vel_var):
         hist = self._history
         k = max(i for i in range(len(hist)) if hist[i].t <= t) if hist[0].t <= t else 0
         snap = hist[k]
@@ -270,8 +274,12 @@ class NavSensorModule:
         if self.settings.estimator == "agnav":
             if speed is None and self._fix is not None:  # V from successive tilt-corrected fixes
                 speed = float(np.hypot(*(xy - self._fix[1][:2]))) / max(t - self._fix[0], 1e-3)
-            was_still, self._still = self._still, speed is not None and speed < self.settings.stationary_speed
-            accepted = self._fix_agnav(k, t, xy, R, v_ref, speed, was_still and not self._still)
+            # still: slower than stationary_speed, or for a receiver velocity than twice its noise (its norm's bias)
+            s = self.settings
+            still_below = max(s.stationary_speed, 2.0 * s.velocity_sigma) if self._doppler(vel, vel_var) \
+                else s.stationary_speed
+            was_still, self._still = self._still, speed is not None and speed < still_below
+            accepted = self._fix_agnav(k, t, xy, R, v_ref, vel_var, speed, was_still and not self._still)
         else:
             accepted = self._fix_thesis(k, t, xy, R, speed)
         if accepted:
@@ -291,7 +299,7 @@ class NavSensorModule:
         self.counters["gnss_gated"] += 1
         return False
 
-    def _fix_agnav(self, k, t, xy, R, v_ref, speed, started=False):
+    def _fix_agnav(self, k, t, xy, R, v_ref, vel_var, speed, started=False):
         s, hist, ekf = self.settings, self._history, self.ekf
         snap = hist[k]
         first = ekf.x is None
@@ -308,8 +316,10 @@ class NavSensorModule:
             for i, var in ((IPHI, math.pi ** 2), (IB, ekf.P[IB, IB])):  # no heading yet: decouple
                 ekf.P[i, :] = ekf.P[:, i] = 0.0
                 ekf.P[i, i] = var
-            if speed is not None:  # the speed needs no heading (decoupled here): it carries the start of motion
-                ekf.update(*ekf.speed_innovation(0.0 if self._still else speed, s.velocity_sigma ** 2))
+            if self._still and self._doppler(v_ref, vel_var):
+                self._fuse(ekf.standstill_innovation(s.standstill_sigma ** 2), gated=False)
+            elif v_ref is not None and speed > 3.0 * math.sqrt(vel_var):  # (a slower norm is biased by the noise)
+                self._fuse(ekf.speed_innovation(speed, vel_var))  # needs no heading: carries the start of motion
             chord = self._chord_course(xy, snap.raw_heading, speed or 0.0)
             if chord is not None:  # absolute heading from the chord between moving fixes
                 ekf.x[IPHI] = chord
@@ -330,10 +340,10 @@ class NavSensorModule:
                 ekf.P[:2, :2] += np.outer(y, y)
                 y, S, d2, H = ekf.position_innovation(xy, R)
             ekf.update(y, S, H, R)
-            if self._still:  # standing: zero speed (a velocity's noise has no direction to fuse)
-                ekf.update(*ekf.speed_innovation(0.0, s.velocity_sigma ** 2))
+            if self._still and self._doppler(v_ref, vel_var):  # standing: zero speed (noise has no direction)
+                self._fuse(ekf.standstill_innovation(s.standstill_sigma ** 2), gated=False)
             elif s.use_gnss_velocity and v_ref is not None:
-                Rv = s.velocity_sigma ** 2 * np.eye(2)
+                Rv = vel_var * np.eye(2)
                 y, S, d2, H = ekf.velocity_innovation(v_ref, Rv)
                 if d2 <= s.gate_chi2:
                     ekf.update(y, S, H, Rv)
@@ -344,6 +354,19 @@ class NavSensorModule:
             self._propagate(hist[j].rate_cw, hist[j].dt, hist[j].still)
             hist[j].nav, hist[j].heading = (ekf.x.copy(), ekf.P.copy()), ekf.x[IPHI]
         return True
+
+    def _doppler(self, vel, vel_var):
+        """True for a receiver velocity (variance at the velocity_sigma floor), not one from fix differences:
+        only that one tells standing still from creeping."""
+        return vel is not None and vel_var <= self.settings.velocity_sigma ** 2
+
+    def _fuse(self, innovation, gated=True):
+        """EKF update from a (y, S, d2, H, R) speed or standstill innovation, gated unless a constraint."""
+        y, S, d2, H, R = innovation
+        if not gated or d2 <= self.settings.gate_chi2:
+            self.ekf.update(y, S, H, R)
+        else:
+            self.counters["velocity_gated"] += 1
 
     def _chord_course(self, xy, rel_heading, speed):
         """Heading (rad, cw from north) at this fix from the chord to the first moving fix once it is

@@ -93,7 +93,7 @@ class NavSensorModuleNode(Node):
         self.imu_rotation = None
         self.velocities = []
         self.pending_fixes = []  # (t, enu, cov, deadline) waiting for their velocity
-        self.recent_fixes = []   # (t, enu) for the fix-difference velocity
+        self.recent_fixes = []   # (t, enu, cov) for the fix-difference velocity
         self.last_imu_t = 0.0
         self.published = 0
         self.missing_tf = 0
@@ -147,27 +147,32 @@ class NavSensorModuleNode(Node):
         self.nsm.inclinometer(to_sec(msg.header.stamp), msg.roll, msg.pitch)
 
     def on_vel(self, msg):
-        v = msg.twist.twist.linear
-        self.velocities = (self.velocities + [(to_sec(msg.header.stamp), np.array([v.x, v.y, v.z]))])[-10:]
+        v, c = msg.twist.twist.linear, msg.twist.covariance
+        var = (c[0] + c[7]) / 2 if c[0] > 0 and c[7] > 0 else None  # unknown: the module's velocity_sigma
+        self.velocities = (self.velocities + [(to_sec(msg.header.stamp), np.array([v.x, v.y, v.z]), var)])[-10:]
         self.submit_fixes(lambda fix: self.velocity_at(fix[0]) is not None)
 
     def velocity_at(self, t):
-        return next((v for tv, v in self.velocities if abs(tv - t) <= VEL_MATCH_S), None)
+        """(ENU velocity, per-axis variance or None) of /gnss/vel at the fix epoch t, else None."""
+        return next(((v, var) for tv, v, var in self.velocities if abs(tv - t) <= VEL_MATCH_S), None)
 
-    def fix_velocity(self, t, enu):
-        """ENU velocity from the latest earlier fix at least fix_velocity_baseline m away, else None."""
-        base = next(((t0, p0) for t0, p0 in reversed(self.recent_fixes)
+    def fix_velocity(self, t, enu, cov):
+        """(ENU velocity, per-axis variance) from the latest earlier fix at least fix_velocity_baseline m away
+        (variance: both fixes' horizontal variances over the time squared), else None."""
+        base = next(((t0, p0, c0) for t0, p0, c0 in reversed(self.recent_fixes)
                      if t0 < t and np.hypot(*(enu[:2] - p0[:2])) >= self.fix_velocity_baseline), None)
-        self.recent_fixes = (self.recent_fixes + [(t, enu)])[-FIX_HISTORY:]
+        self.recent_fixes = (self.recent_fixes + [(t, enu, cov)])[-FIX_HISTORY:]
         if base is None or self.fix_velocity_baseline <= 0:
             return None
-        return (enu - base[1]) / (t - base[0])
+        dt = t - base[0]
+        return (enu - base[1]) / dt, float(np.trace(cov[:2, :2]) + np.trace(base[2][:2, :2])) / 2 / dt ** 2
 
     def submit_fixes(self, due):
         """Hand the pending fixes up to the last due one to the module, in epoch order."""
         last = max((i for i, fix in enumerate(self.pending_fixes) if due(fix)), default=-1)
         for t, enu, cov, _ in self.pending_fixes[:last + 1]:
-            self.nsm.gnss(t, enu, cov, self.velocity_at(t) if self.velocities else self.fix_velocity(t, enu))
+            vel = self.velocity_at(t) if self.velocities else self.fix_velocity(t, enu, cov)
+            self.nsm.gnss(t, enu, cov, *(vel or ()))
         del self.pending_fixes[:last + 1]
 
     def on_fix(self, msg):
