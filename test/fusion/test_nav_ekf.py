@@ -4,7 +4,7 @@ import math
 import numpy as np
 
 from agnav_fusion import kalman
-from agnav_fusion.nav_ekf import IB, IPHI, NavEKF
+from agnav_fusion.nav_ekf import IB, IPHI, NavEKF, NavEKFSettings
 
 
 def straight_run(seed=3, seconds=60.0, rate=50.0, bias=0.004):
@@ -49,3 +49,27 @@ def test_rts_smoother_beats_the_filter():
     err_f = np.sqrt(np.mean(np.sum((filtered - truth) ** 2, axis=1)))
     err_s = np.sqrt(np.mean(np.sum((smoothed - truth) ** 2, axis=1)))
     assert err_s < 0.8 * err_f
+
+
+def test_receiver_bias_states_keep_the_position_covariance_honest():
+    """Fixes with a slow receiver error (0.5 m offset) + 1.5 cm white: with bias states the position variance stays
+    at the slow error's (the truth is 0.5 m off) while the heading comes from the track."""
+    def run(settings):
+        rng = np.random.default_rng(6)
+        ekf = NavEKF(settings)
+        heading, rate, cov = math.radians(30.0), 50, np.diag([0.25, 0.25])
+        offset = np.array([0.5, 0.0])
+        R, bias_var = ekf.split_fix_covariance(cov)
+        ekf.initialise(offset, R, heading + 0.05, 0.5)
+        for k in range(1, 120 * rate):
+            ekf.predict(rng.normal(0, 0.002), 1.0 / rate)
+            if k % rate == 0:
+                p = 0.5 * k / rate * np.array([math.sin(heading), math.cos(heading)])
+                R, bias_var = ekf.split_fix_covariance(cov)
+                y, S, _, H = ekf.position_innovation(p + offset + rng.normal(0, 0.015, 2), R)
+                ekf.update(y, S, H, R)
+        return ekf, bias_var, abs(math.remainder(ekf.x[IPHI] - heading, 2 * math.pi))
+
+    ekf, bias_var, heading_error = run(NavEKFSettings(gnss_bias_tau=300.0, gnss_white_sigma=0.015))
+    assert bias_var == 0.25 - 0.015 ** 2
+    assert math.sqrt(ekf.P[0, 0]) > 0.45 and heading_error < math.radians(0.2)

@@ -26,7 +26,7 @@ def rts(xs_f, Ps_f, xs_p, Ps_p, Fs, angles=()):
     state indices in `angles` are differenced on the circle."""
     xs, Ps = [xs_f[-1]], [Ps_f[-1]]
     for k in range(len(xs_f) - 2, -1, -1):
-        C = np.linalg.solve(Ps_p[k].T, (Ps_f[k] @ Fs[k].T).T).T
+        C = Ps_f[k] @ Fs[k].T @ np.linalg.pinv(Ps_p[k], hermitian=True)  # pinv: states held fixed have P = 0
         dx = xs[-1] - xs_p[k]
         for i in angles:
             dx[i] = np.remainder(dx[i] + np.pi, 2 * np.pi) - np.pi

@@ -52,6 +52,7 @@ class NavSensorModuleSettings:
     motion_bias_sigma: float = 0.003          # rad/s, yaw-gyro bias change once moving (SPEC §11.4 motion biases)
     history: float = 2.0                      # s of IMU history kept for GNSS latency
     incl_timeout: float = 0.5                 # s, older inclinometer data is stale (gyro-only attitude)
+    untracked_tilt_sigma: float = 0.035       # rad, roll/pitch uncertainty while no tilt sensor reports (2°: field)
     gnss_timeout: float = 2.5                 # s without an accepted fix -> dead reckoning
     max_dt: float = 0.5                       # s, longer IMU gaps are clamped and counted
 
@@ -267,7 +268,10 @@ class NavSensorModule:
         snap = hist[k]
         corrected = tilt_correction.correct(antenna, self.lever, snap.heading, snap.pitch, snap.roll)
         v_ref = None if vel is None else vel[:2] - self._lever_velocity(k)
-        R = cov[:2, :2] + self._tilt_variance() * np.eye(2)
+        fix_cov = cov[:2, :2]
+        if self.settings.estimator == "agnav":  # the receiver's slow error becomes the EKF's bias states
+            fix_cov, _ = self.ekf.split_fix_covariance(fix_cov)
+        R = fix_cov + self._tilt_variance() * np.eye(2)
         speed = float(np.hypot(*v_ref)) if v_ref is not None else None
         fwd = np.array([math.sin(snap.heading), math.cos(snap.heading)])
         xy = corrected[:2] - (t - snap.t) * (speed or 0.0) * fwd   # align to the snapshot epoch
@@ -418,8 +422,9 @@ class NavSensorModule:
     def _tilt_variance(self):
         """Horizontal variance that attitude errors add to the corrected position (per axis)."""
         vr, vp = self._attitude_variances()
-        vr = min(vr, 0.1) if np.isfinite(vr) else 0.1
-        vp = min(vp, 0.1) if np.isfinite(vp) else 0.1
+        untracked = self.settings.untracked_tilt_sigma ** 2
+        vr = min(vr, 0.1) if np.isfinite(vr) else untracked
+        vp = min(vp, 0.1) if np.isfinite(vp) else untracked
         vh = min(self._heading_variance(), 1.0)
         a, b, h = self.lever
         return h * h * (vr + vp) / 2 + (a * a + b * b) * vh
