@@ -14,12 +14,11 @@ from test.foundation.test_bag_replay import imu_and_inclinometer_bag
 AGNAV = str(Path(sys.executable).with_name("agnav"))
 
 
-def recorders_config(tmp_path, n, output_param=True):
+def recorders_config(tmp_path, n, output_param=True, topic="/imu/data_raw", **extra):
     nodes = [{"executable": "bag_recorder", "name": f"rec{i}",
-              "parameters": ({"output": str(tmp_path / f"rec{i}")} if output_param else {}) |
-              {"topics": ["/imu/data_raw"]},
+              "parameters": ({"output": str(tmp_path / f"rec{i}")} if output_param else {}) | {"topics": [topic]},
               "remappings": {}} for i in range(n)]
-    cfg = {"description": "test graph", "bag": "", "record": [], "nodes": nodes,
+    cfg = extra | {"description": "test graph", "bag": "", "record": [], "nodes": nodes,
            "static_transforms": [{"parent": "base_link", "child": "imu_link", "xyz": [0.1, 0, 0.5], "rpy": [0, 0, 0]}]}
     path = tmp_path / "graph.yaml"
     path.write_text(yaml.safe_dump(cfg))
@@ -57,3 +56,26 @@ def test_runner_fails_when_a_node_dies(tmp_path, processes):
 def test_runner_rejects_unknown_config(tmp_path):
     result = run_agnav("no_such_config")
     assert result.returncode != 0 and "not found" in result.stderr
+
+
+def test_bag_remap_moves_a_replayed_topic(tmp_path):
+    bag = imu_and_inclinometer_bag(tmp_path / "in", StoragePlugin.MCAP)
+    cfg = recorders_config(tmp_path, 1, topic="/imu/raw_moved", bag_remap={"/imu/data_raw": "/imu/raw_moved"})
+    result = run_agnav(cfg, "--bag", bag, "--record", tmp_path / "all")  # the player waits for the recorders
+    assert result.returncode == 0, result.stderr
+    for rec in ("rec0", "all"):
+        with AnyReader([tmp_path / rec]) as reader:
+            counts = {c.topic: c.msgcount for c in reader.connections}
+        assert counts["/imu/raw_moved"] == 300 and "/imu/data_raw" not in counts
+
+
+def test_runner_refuses_a_node_publishing_a_replayed_topic(tmp_path):
+    """A graph node's output on a replayed topic would mix into the input (the node would read its own output)."""
+    bag = imu_and_inclinometer_bag(tmp_path / "in", StoragePlugin.MCAP)
+    cfg = {"description": "loop", "nodes": [{"executable": "bag_player", "name": "second_player",
+                                             "parameters": {"bag": str(bag), "rate": 0.0}}]}
+    path = tmp_path / "loop.yaml"
+    path.write_text(yaml.safe_dump(cfg))
+    result = run_agnav(path, "--bag", bag, timeout=60)
+    assert result.returncode != 0
+    assert "another node publishes /imu/data_raw" in result.stderr

@@ -4,6 +4,7 @@
 description: one line
 bag: bags/asphalt_loop            # default input for replay (relative to the repository root), optional
 record: []                        # topics to record with --record (empty: every topic)
+bag_remap: {/imu/data: /imu/data_raw}   # bag topic -> graph topic, as the player publishes it (optional)
 static_transforms:                # base_link -> sensor mounts for live runs (bags carry /tf_static)
   - {parent: base_link, child: gnss_link, xyz: [0.0, 0.0, 1.5], rpy: [0.0, 0.0, 0.0]}
 nodes:
@@ -59,6 +60,7 @@ class GraphConfig:
     description: str = ""
     bag: str = ""
     record: list = field(default_factory=list)
+    bag_remap: dict = field(default_factory=dict)
     static_transforms: list = field(default_factory=list)
     nodes: list = field(default_factory=list)
 
@@ -82,10 +84,11 @@ def load_config(name_or_path):
     if not path.is_file():
         raise FileNotFoundError(f"config '{name_or_path}' not found; bundled: {', '.join(available_configs())}")
     raw = yaml.safe_load(path.read_text()) or {}
-    unknown = set(raw) - {"description", "bag", "record", "static_transforms", "nodes"}
+    unknown = set(raw) - {"description", "bag", "record", "bag_remap", "static_transforms", "nodes"}
     if unknown:
         raise ValueError(f"{path}: unknown keys {sorted(unknown)}")
     nodes = [NodeSpec(**n) for n in raw.get("nodes") or []]
     return GraphConfig(path=path, description=raw.get("description", ""), bag=raw.get("bag") or "",
-                       record=raw.get("record") or [], static_transforms=raw.get("static_transforms") or [],
+                       record=raw.get("record") or [], bag_remap=raw.get("bag_remap") or {},
+                       static_transforms=raw.get("static_transforms") or [],
                        nodes=nodes)

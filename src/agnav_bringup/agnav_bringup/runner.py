@@ -146,6 +146,7 @@ def run(args):
         if bag is not None:
             player = BagPlayerNode(parameter_overrides=[
                 Parameter("bag", value=str(bag)), Parameter("rate", value=args.rate),
+                Parameter("remap", value=[f"{a}:={b}" for a, b in config.bag_remap.items()] or [""]),
                 Parameter("progress", value=not args.quiet),
                 Parameter("cache_dir", value=str(REPO_ROOT / "build" / "bag_cache")),
                 Parameter("start_delay", value=2.0 if args.processes else 0.5),

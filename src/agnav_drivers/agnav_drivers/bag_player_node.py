@@ -87,6 +87,14 @@ class BagPlayerNode(Node):
         return level, "finished" if self.finished else "playing", {
             "published": self.published, "retries": self.retries, "skipped_topics": ",".join(self.skipped) or "none"}
 
+    def _check_sole_publisher(self):
+        """A node that publishes a replayed topic would mix its output into the recording's input (and into the
+        probes' count): refuse to play; `remap` (a config's bag_remap) moves the bag's topic aside."""
+        for topic, pub in self.publishers_.items():
+            if topic not in LATCHED_TOPICS and self.count_publishers(pub.topic_name) > 1:
+                raise RuntimeError(f"another node publishes {pub.topic_name}, which the bag replays as {topic}: "
+                                   "remap the bag topic (player parameter remap, config bag_remap) or the node's")
+
     def _restart(self):
         self._iter = iter(self.source)
         self._start_wall = time.monotonic()
@@ -103,6 +111,7 @@ class BagPlayerNode(Node):
         if self.finished or (self._iter is None and not self._ready()):
             return
         if self._iter is None:
+            self._check_sole_publisher()
             self._restart()
         budget = self.window - (self.published - self.received) if self.rate == 0.0 else 10_000
         while budget > 0:
