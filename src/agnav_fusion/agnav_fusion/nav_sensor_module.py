@@ -47,6 +47,9 @@ class NavSensorModuleSettings:
     heading_init_distance: float = 3.0        # m of chord between moving fixes that initialises the heading
     stationary_speed: float = 0.05            # m/s: slower fixes mark the vehicle still (yaw rate zero: gyro bias)
     standstill_sigma: float = 0.005           # m/s (and m/s^2): speed and acceleration of a vehicle at rest
+    wheel_speed_sigma: float = 0.05           # m/s, floor of a wheel/radar speed's noise (agnav; /wheel/odometry)
+    wheel_slip_sigma: float = 0.03            # of the speed: slip and rolling-radius error of a wheel speed
+    wheel_timeout: float = 0.5                # s, an older wheel speed is not fused
     lever_rate_window: float = 0.2            # s of body rates averaged for the antenna lever-arm velocity
     still_rate_sigma: float = 0.01            # rad/s per IMU sample of a still gyro (ENV-05F 0.25 deg/s, 10 Hz band)
     motion_bias_sigma: float = 0.003          # rad/s, yaw-gyro bias change once moving (SPEC §11.4 motion biases)
@@ -84,6 +87,7 @@ class _Sample:
     raw_heading: float        # thesis: integrated raw yaw gyro
     nav: tuple                # agnav: (x, P) of the EKF; thesis: (xy, cov) of dead reckoning
     still: bool = False       # agnav: vehicle stationary (zero-yaw-rate update of the gyro bias)
+    wheel: tuple = None       # agnav: (speed m/s, variance) of a wheel speed fused at this epoch
 
 
 def _finite(*values):
@@ -115,12 +119,15 @@ class NavSensorModule:
             self.dr = DeadReckoning(s.dead_reckoning)
         self.counters = {k: 0 for k in ("imu", "imu_bad_value", "imu_bad_stamp", "imu_gap", "incl_bad_value",
                                         "incl_bad_stamp", "gnss", "gnss_bad_value", "gnss_bad_stamp",
-                                        "gnss_too_old", "gnss_gated", "gnss_forced", "velocity_gated")}
+                                        "gnss_too_old", "gnss_gated", "gnss_forced", "velocity_gated", "wheel",
+                                        "wheel_bad_value", "wheel_bad_stamp", "wheel_gated")}
         self._history = deque()
         self._pending_gnss = []
         self._incl = None            # (t, roll, pitch) REP-103
         self._last_incl_t = -math.inf
         self._last_gnss_t = -math.inf
+        self._wheel = None           # agnav: latest wheel speed (t, speed, variance) not yet fused
+        self._last_wheel_t = -math.inf
         self._last_accepted_t = -math.inf
         self._rejects = 0
         self._raw_heading = 0.0      # relative yaw before the absolute heading exists (agnav)
@@ -141,11 +148,7 @@ class NavSensorModule:
     # ---- inputs -------------------------------------------------------------------------------------
     def inclinometer(self, t, roll, pitch):
         """Raw inclinometer reading (REP-103 rad) stamped at its epoch."""
-        if not _finite(t, roll, pitch):
-            self.counters["incl_bad_value"] += 1
-            return False
-        if t <= 0 or t <= self._last_incl_t:
-            self.counters["incl_bad_stamp"] += 1
+        if not self._valid("incl", t, self._last_incl_t, roll, pitch):
             return False
         self._last_incl_t = t
         zero_roll, zero_pitch = (math.radians(v) for v in self.settings.incl_zero_deg)
@@ -155,11 +158,7 @@ class NavSensorModule:
     def gnss(self, t, antenna_enu, cov, vel_enu=None, vel_var=None):
         """Antenna fix (map ENU m, 3x3 covariance m^2, optional ENU velocity m/s with its per-axis horizontal
         variance m^2/s^2, at least velocity_sigma^2; default velocity_sigma^2) stamped at its epoch."""
-        if not _finite(t, antenna_enu, cov) or (vel_enu is not None and not _finite(vel_enu)):
-            self.counters["gnss_bad_value"] += 1
-            return False
-        if t <= 0 or t <= self._last_gnss_t:
-            self.counters["gnss_bad_stamp"] += 1
+        if not self._valid("gnss", t, self._last_gnss_t, antenna_enu, cov, 0.0 if vel_enu is None else vel_enu):
             return False
         if self._history and t < self._history[0].t:
             self.counters["gnss_too_old"] += 1
@@ -173,14 +172,22 @@ class NavSensorModule:
         self._drain_gnss()
         return True
 
+    def wheel_speed(self, t, speed, var=None):
+        """Forward ground speed (m/s, negative reversing) of base_link from wheel odometry or a radar, with its
+        variance (None: wheel_speed_sigma), stamped at its epoch; fused by the agnav EKF at the next IMU sample."""
+        if not self._valid("wheel", t, self._last_wheel_t, speed, 0.0 if var is None else var):
+            return False
+        self._last_wheel_t = t
+        self.counters["wheel"] += 1
+        s = self.settings
+        var = max(var or 0.0, s.wheel_speed_sigma ** 2) + (s.wheel_slip_sigma * speed) ** 2
+        self._wheel = (t, float(speed), var)
+        return True
+
     def imu(self, t, gyro_flu):
         """Body (base_link FLU) gyro rates (rad/s) at epoch t; advances the module. Returns the new NavState."""
-        if not _finite(t, gyro_flu):
-            self.counters["imu_bad_value"] += 1
-            return None
         last = self._history[-1].t if self._history else None
-        if t <= 0 or (last is not None and t <= last):
-            self.counters["imu_bad_stamp"] += 1
+        if not self._valid("imu", t, -math.inf if last is None else last, gyro_flu):
             return None
         self.counters["imu"] += 1
         dt = 0.0 if last is None else t - last
@@ -194,6 +201,16 @@ class NavSensorModule:
 
     def state(self):
         return self._state
+
+    def _valid(self, kind, t, last_t, *values):
+        """Input guard: finite values and a positive stamp after last_t, else counted as {kind}_bad_value/_stamp."""
+        if not _finite(t, *values):
+            self.counters[f"{kind}_bad_value"] += 1
+            return False
+        if t <= 0 or t <= last_t:
+            self.counters[f"{kind}_bad_stamp"] += 1
+            return False
+        return True
 
     # ---- per-sample processing -----------------------------------------------------------------------
     def _step(self, t, dt, gyro):
@@ -209,14 +226,17 @@ class NavSensorModule:
         roll_incl = None if incl is None else incl[1]
         pitch_incl = None if incl is None else -incl[2]
         rate_cw = -dyaw
+        wheel = None
         if s.estimator == "agnav":
             acc = self._kinematic_acceleration(gyro, prev, dt) if s.accel_compensation else np.zeros(3)
             # a pendulum reads roll + a_y/g and (REP-103) pitch - a_x/g, i.e. thesis nose-up pitch + a_x/g
             roll = self.roll_filter.update(droll, roll_incl, dt, acc[1] / GRAVITY)
             pitch = self.pitch_filter.update(-dpitch, pitch_incl, dt, acc[0] / GRAVITY)
             self._raw_heading += rate_cw * dt
+            wheel = self._wheel[1:] if self._wheel and 0 <= t - self._wheel[0] <= s.wheel_timeout else None
+            self._wheel = None if wheel else self._wheel
             if self.ekf.x is not None:
-                self._propagate(rate_cw, dt, self._still)
+                self._propagate(rate_cw, dt, self._still, wheel)
                 heading, nav = self.ekf.x[IPHI], (self.ekf.x.copy(), self.ekf.P.copy())
             else:
                 heading, nav = self._raw_heading, None
@@ -232,16 +252,19 @@ class NavSensorModule:
         roll = 0.0 if roll is None else roll
         pitch = 0.0 if pitch is None else pitch
         raw = self._raw_heading if s.estimator == "agnav" else self.heading_lsm.raw_heading
-        self._history.append(_Sample(t, dt, rate_cw, gyro, roll, pitch, heading, raw, nav, self._still))
+        self._history.append(_Sample(t, dt, rate_cw, gyro, roll, pitch, heading, raw, nav, self._still, wheel))
         while self._history[0].t < t - s.history:
             self._history.popleft()
 
-    def _propagate(self, rate_cw, dt, still):
-        """EKF prediction with the yaw rate; standing still, the gyro reading is its bias (zero-rate update)."""
+    def _propagate(self, rate_cw, dt, still, wheel=None):
+        """EKF prediction with the yaw rate; standing still, the gyro reading is its bias (zero-rate update);
+        a wheel speed (speed, variance) measures V."""
         self.ekf.predict(rate_cw, dt)
         if still:
             y, S, H, R = self.ekf.zero_rate_innovation(rate_cw, self.settings.still_rate_sigma ** 2)
             self.ekf.update(y, S, H, R)
+        if wheel is not None:
+            self._fuse(self.ekf.speed_innovation(*wheel), counter="wheel_gated")
 
     def _kinematic_acceleration(self, gyro, prev, dt):
         """Body (FLU) acceleration of the inclinometer: forward A, centripetal V*wz, and the lever-arm terms
@@ -355,7 +378,7 @@ class NavSensorModule:
                     self.counters["velocity_gated"] += 1
         snap.nav, snap.heading = (ekf.x.copy(), ekf.P.copy()), ekf.x[IPHI]
         for j in range(k + 1, len(hist)):  # replay the IMU samples received since the epoch
-            self._propagate(hist[j].rate_cw, hist[j].dt, hist[j].still)
+            self._propagate(hist[j].rate_cw, hist[j].dt, hist[j].still, hist[j].wheel)
             hist[j].nav, hist[j].heading = (ekf.x.copy(), ekf.P.copy()), ekf.x[IPHI]
         return True
 
@@ -364,13 +387,13 @@ class NavSensorModule:
         only that one tells standing still from creeping."""
         return vel is not None and vel_var <= self.settings.velocity_sigma ** 2
 
-    def _fuse(self, innovation, gated=True):
+    def _fuse(self, innovation, gated=True, counter="velocity_gated"):
         """EKF update from a (y, S, d2, H, R) speed or standstill innovation, gated unless a constraint."""
         y, S, d2, H, R = innovation
         if not gated or d2 <= self.settings.gate_chi2:
             self.ekf.update(y, S, H, R)
         else:
-            self.counters["velocity_gated"] += 1
+            self.counters[counter] += 1
 
     def _chord_course(self, xy, rel_heading, speed):
         """Heading (rad, cw from north) at this fix from the chord to the first moving fix once it is

@@ -1,4 +1,5 @@
-"""Navigation sensor module node (SPEC §6.3): /imu/data_raw + /inclinometer + /gnss/fix (+ /gnss/vel)
+"""Navigation sensor module node (SPEC §6.3): /imu/data_raw + /inclinometer + /gnss/fix (+ /gnss/vel, + wheel or
+radar speed on /wheel/odometry: nav_msgs/Odometry twist.linear.x with its covariance)
 -> /odometry/filtered at the IMU rate (frame map, child base_link, pose + twist covariance), TF map->odom->base_link
 (map->odom identity: the module's map pose is continuous enough between 1 Hz fixes), /map_datum (latched).
 
@@ -90,6 +91,7 @@ class NavSensorModuleNode(Node):
             self.datum_pub = self.create_publisher(NavSatFix, "/map_datum", LATCHED_QOS)
             self.create_subscription(NavSatFix, "/gnss/fix", self.on_fix, SENSOR_QOS)
             self.create_subscription(TwistWithCovarianceStamped, "/gnss/vel", self.on_vel, SENSOR_QOS)
+            self.create_subscription(Odometry, "/wheel/odometry", self.on_wheel, SENSOR_QOS)
         self.imu_rotation = None
         self.velocities = []
         self.pending_fixes = []  # (t, enu, cov, deadline) waiting for their velocity
@@ -145,6 +147,10 @@ class NavSensorModuleNode(Node):
 
     def on_incl(self, msg):
         self.nsm.inclinometer(to_sec(msg.header.stamp), msg.roll, msg.pitch)
+
+    def on_wheel(self, msg):
+        var = msg.twist.covariance[0]
+        self.nsm.wheel_speed(to_sec(msg.header.stamp), msg.twist.twist.linear.x, var if var > 0 else None)
 
     def on_vel(self, msg):
         v, c = msg.twist.twist.linear, msg.twist.covariance
@@ -215,7 +221,7 @@ class NavSensorModuleNode(Node):
 
     def check_inputs(self):
         c = dict(self.nsm.counters, missing_tf=self.missing_tf, no_fix=self.no_fix)
-        bad = sum(v for k, v in c.items() if k not in ("imu", "gnss"))
+        bad = sum(v for k, v in c.items() if k not in ("imu", "gnss", "wheel"))  # the rest count rejections
         return (WARN if bad or self.imu_rotation is None else OK), f"{bad} inputs rejected", c
 
     def check_state(self):

@@ -7,6 +7,10 @@ chord between the fixes about ±half-chord s around each fix, where its speed ex
 noise, ≈ √2 σ_fix / length, is listed; the nuance log has no GPS accuracy and 2.5 m is assumed, so there it is an
 upper bound), position against the fixes themselves (the filter's own input: a
 consistency check, not accuracy), and every output is checked for NaN and divergence (> DIVERGED_M from the fixes).
+GNSS outages: test1 is replayed again with the fixes removed over OUTAGES (30 s each, s after the first fix), with
+and without its wheel odometry (/husky_velocity_controller/odom replayed as /wheel/odometry: the module's optional
+speed input); the dead-reckoned position is scored against the removed fixes (end of the outage, worst, and the
+RMS over the 10 s after the fixes return).
 Cost: bag duration / wall time of the whole replay (graph start-up included) = × real time; the simulated
 asphalt_loop replay of `agnav run nsm` (the `make run` graph) is timed and scored against its truth as well.
 """
@@ -21,17 +25,25 @@ import time
 from pathlib import Path
 
 import numpy as np
+import yaml
 
 from agnav_bringup.evaluate import KEYS, evaluate_bags, odometry_arrays, read_bag
+from agnav_bringup.graph_config import load_config
+from agnav_common.bagio import typestore
 from agnav_common.frames import wrap_angle
 from agnav_common.geodesy import LocalTangentPlane
 
 REPO = Path(__file__).resolve().parents[4]
 DOCS = REPO / "docs" / "benchmarks" / "realdata.md"
-DATASETS = {  # name: (config, bag, the bag's fix topic, half-chord s of the course over ground)
-    "test1": ("test1", REPO / "bags" / "test1", "/fix", 3.0),               # 2.5 Hz SBAS at ~1 m/s: 6 m chord
-    "nuance_car_circles": ("nuance", REPO / "bags" / "nuance_car_circles", "/gnss/fix", 1.5),  # 1 Hz: neighbours
+DATASETS = {  # name: (config, bag, the bag's fix topic, half-chord s of the course over ground, wheel odometry)
+    "test1": ("test1", REPO / "bags" / "test1", "/fix", 3.0, True),         # 2.5 Hz SBAS at ~1 m/s: 6 m chord
+    "test1 without wheel odometry": ("test1", REPO / "bags" / "test1", "/fix", 3.0, False),
+    "nuance_car_circles": ("nuance", REPO / "bags" / "nuance_car_circles", "/gnss/fix", 1.5, False),  # 1 Hz
 }
+WHEEL_TOPIC = "/wheel/odometry"
+OUTAGES = ((100.0, 130.0), (250.0, 280.0))  # s after test1's first fix
+AFTER_OUTAGE = 10.0  # s after the fixes return, scored for re-convergence
+DEAD_RECKONING_FROM = 20.0  # s after test1's first fix: no fixes after (the heading is initialised by then)
 SIMULATED = ("nsm", REPO / "bags" / "asphalt_loop")
 MIN_SPEED = 1.0     # m/s, GNSS course is scored above this speed
 DIVERGED_M = 10.0   # m from the fixes: diverged
@@ -42,6 +54,36 @@ DEG = 180.0 / math.pi
 def _rms(a):
     a = np.asarray(a, float)
     return float(np.sqrt(np.mean(a * a))) if a.size else None
+
+
+def config_variant(config, tmp, wheel):
+    """The config (name or path), or a copy in tmp whose player does not replay the wheel odometry."""
+    cfg = load_config(config)
+    raw = yaml.safe_load(cfg.path.read_text())
+    remap = raw.get("bag_remap") or {}
+    if wheel or WHEEL_TOPIC not in remap.values():
+        return config
+    raw["bag_remap"] = {k: v for k, v in remap.items() if v != WHEEL_TOPIC}
+    path = Path(tmp) / f"{cfg.path.stem}_no_wheel.yaml"
+    path.write_text(yaml.safe_dump(raw))
+    return str(path)
+
+
+def without_fixes(src, dst, topic, windows):
+    """Copy of bag src at dst without the `topic` messages inside windows (s after its first `topic` message)."""
+    from rosbags.rosbag2 import Reader, Writer
+    from rosbags.rosbag2.enums import StoragePlugin
+    store = typestore()
+    with Reader(src) as reader:
+        t0 = min(ts for c, ts, _ in reader.messages([c for c in reader.connections if c.topic == topic]))
+        with Writer(dst, version=9, storage_plugin=StoragePlugin.MCAP) as writer:
+            out = {c.id: writer.add_connection(c.topic, c.msgtype, typestore=store,
+                                               offered_qos_profiles=c.ext.offered_qos_profiles)
+                   for c in reader.connections}
+            for c, ts, raw in reader.messages():
+                if c.topic == topic and any(a <= (ts - t0) * 1e-9 <= b for a, b in windows):
+                    continue
+                writer.write(out[c.id], ts, raw)
 
 
 def replay(config, bag, out):
@@ -111,6 +153,30 @@ def score(out, source, fix_topic, half, bag_duration):
     }
 
 
+def score_outages(out, source, fix_topic, windows):
+    """Per outage window: the output's position against the removed fixes and its reported σ."""
+    bag = read_bag(out, ["/odometry/filtered", "/map_datum"])
+    est = odometry_arrays(bag["/odometry/filtered"])
+    sigma = np.array([math.sqrt(m.pose.covariance[0] + m.pose.covariance[7]) for _, m in bag["/odometry/filtered"]])
+    datum = bag["/map_datum"][-1][1]
+    tf, e, n = fixes_enu(read_bag(source, [fix_topic])[fix_topic], (datum.latitude, datum.longitude, datum.altitude))
+    rel = tf - tf[0]
+
+    def error(sel):
+        return np.hypot(np.interp(tf[sel], est["t"], est["x"]) - e[sel], np.interp(tf[sel], est["t"], est["y"]) - n[sel])
+
+    rows = []
+    for a, b in windows:
+        inside, after = (rel >= a) & (rel <= b), (rel > b) & (rel <= b + AFTER_OUTAGE)
+        err = error(inside)
+        t_in = est["t"][(est["t"] >= tf[0] + a) & (est["t"] <= tf[0] + b)]
+        rows.append({"window_s": [a, b], "travelled_m": float(np.sum(np.hypot(np.diff(e[inside]), np.diff(n[inside])))),
+                     "end_m": float(err[-1]), "max_m": float(err.max()), "after_rms_m": _rms(error(after)),
+                     "sigma_end_m": float(np.interp(tf[inside][-1], est["t"], sigma)),
+                     "max_output_gap_s": float(np.diff(t_in).max()) if t_in.size > 1 else None})
+    return rows
+
+
 def bag_duration(path):
     from rosbags.highlevel import AnyReader
     with AnyReader([Path(path)]) as reader:
@@ -120,13 +186,33 @@ def bag_duration(path):
 def run(names, simulated=True):
     results = {}
     with tempfile.TemporaryDirectory(prefix="agnav_realdata_") as tmp:
-        for name in names:
-            config, bag, fix_topic, half = DATASETS[name]
-            out = Path(tmp) / name
-            wall = replay(config, bag, out)
+        for k, name in enumerate(names):
+            config, bag, fix_topic, half, wheel = DATASETS[name]
+            out = Path(tmp) / f"run{k}"
+            variant = config_variant(config, tmp, wheel)
+            wall = replay(variant, bag, out)
             res = score(out, bag, fix_topic, half, bag_duration(bag))
-            res.update(config=config, wall_s=wall, x_real_time=res["duration_s"] / wall)
+            res.update(config=config if variant == config else f"{config} without {WHEEL_TOPIC}",
+                       wall_s=wall, x_real_time=res["duration_s"] / wall)
             results[name] = res
+        if "test1" in names:
+            config, bag, fix_topic, _, _ = DATASETS["test1"]
+            gapped = Path(tmp) / "test1_outages"
+            without_fixes(bag, gapped, fix_topic, OUTAGES)
+            results["outages"] = {}
+            for wheel in (True, False):
+                out = Path(tmp) / f"outage_{wheel}"
+                replay(config_variant(config, tmp, wheel), gapped, out)
+                results["outages"]["wheel odometry" if wheel else "no wheel odometry"] = score_outages(
+                    out, bag, fix_topic, OUTAGES)
+            # robot_localization's regression is wheel odometry + IMU without GNSS: ours the same way from 20 s
+            dr_bag, out = Path(tmp) / "test1_dead_reckoning", Path(tmp) / "dead_reckoning"
+            without_fixes(bag, dr_bag, fix_topic, ((DEAD_RECKONING_FROM, math.inf),))
+            replay(config, dr_bag, out)
+            est = odometry_arrays(read_bag(out, ["/odometry/filtered"])["/odometry/filtered"])
+            last = score_outages(out, bag, fix_topic, ((DEAD_RECKONING_FROM, math.inf),))[0]
+            results["dead_reckoning"] = dict(last, end_from_first_pose_m=[float(est["x"][-1] - est["x"][0]),
+                                                                          float(est["y"][-1] - est["y"][0])])
         if simulated:
             config, bag = SIMULATED
             out = Path(tmp) / bag.name
@@ -155,9 +241,19 @@ def markdown(results):
                      f"{_f(h['mean'])} ({h['epochs']}) | {_f(h['cog_noise'], '.1f')} | {_f(p['rms'])} / {_f(p['max'])} | {_f(s['median'])} / "
                      f"{_f(s['max'])} | {'no' if r['finite'] else 'YES'} | {'YES' if r['diverged'] else 'no'} | "
                      f"{r['initialised_after_s']:.1f} | {r['odometry_to_last_fix_s']:.2f} | {r['x_real_time']:.1f} |")
-    for name, r in results.items():
-        if name in real:
-            continue
+    if results.get("outages"):
+        lines += ["", "GNSS outages on test1 (fixes removed from the input; errors against the removed fixes, whose "
+                  "own noise is the σ_xy above):", "",
+                  "| outage s after first fix | travelled m | input | error at the end m | max error m | σ_xy at the end m "
+                  "| RMS error 10 s after m | longest output gap s |", "|---|---|---|---|---|---|---|---|"]
+        for label, rows in results["outages"].items():
+            for r in rows:
+                lines.append(f"| {r['window_s'][0]:.0f}–{r['window_s'][1]:.0f} | {r['travelled_m']:.1f} | {label} | "
+                             f"{r['end_m']:.2f} | {r['max_m']:.2f} | {r['sigma_end_m']:.2f} | {_f(r['after_rms_m'])} | "
+                             f"{_f(r['max_output_gap_s'], '.3f')} |")
+    name = SIMULATED[1].name
+    if name in results:
+        r = results[name]
         lines += ["", f"Simulated {name} through `agnav run {r['config']}` (the `make run` graph, against truth): "
                   + ", ".join(f"{k} RMS {_f(r[k]['rms'])} (max {_f(r[k]['max'])})" for k in KEYS)
                   + f"; replay {r['duration_s']:.0f} s in {r['wall_s']:.0f} s wall = **{r['x_real_time']:.1f} × real "
@@ -169,9 +265,18 @@ def markdown(results):
                   f"the IMU's absolute orientation, in its odom frame from the first pose) ends at ({RL_FINAL[0]}, "
                   f"{RL_FINAL[1]}) m ± 1.05 m, {math.hypot(*RL_FINAL):.1f} m from the start. The SBAS fixes put the "
                   f"end ({f[0]:.1f}, {f[1]:.1f}) m ENU from the first fix ({math.hypot(*f):.1f} m), and our module "
-                  f"(GNSS + gyro, no wheel-odometry input) ({d[0]:.1f}, {d[1]:.1f}) m from its first published pose "
-                  f"({math.hypot(*d):.1f} m): that regression value is a dead-reckoning reference without GNSS, "
-                  "not a position, so no frame comparison is meaningful; adding wheel odometry is left undone."]
+                  f"(GNSS + gyro + wheel odometry) ({d[0]:.1f}, {d[1]:.1f}) m from its first published pose "
+                  f"({math.hypot(*d):.1f} m). That regression value is wheel-odometry dead reckoning over the whole "
+                  f"run without GNSS, at least {math.hypot(*RL_FINAL) - math.hypot(*f):.0f} m from where the fixes "
+                  "end whatever the rotation between the frames, so it is no reference for a GNSS-aided position."]
+        if "dead_reckoning" in results:
+            r = results["dead_reckoning"]
+            e = r["end_from_first_pose_m"]
+            lines[-1] += (f" Compared like for like, the module dead-reckoning on wheel odometry + gyro with every "
+                          f"fix after {DEAD_RECKONING_FROM:.0f} s removed ({r['travelled_m']:.0f} m travelled) ends "
+                          f"({e[0]:.1f}, {e[1]:.1f}) m from its first pose ({math.hypot(*e):.1f} m; robot_localization "
+                          f"{math.hypot(*RL_FINAL):.1f} m), {r['end_m']:.1f} m from the last fix (worst "
+                          f"{r['max_m']:.1f} m), with σ_xy {r['sigma_end_m']:.1f} m at the end.")
     lines += ["", "Data notes: test1's IMU mount is upstream's `static_transform_publisher 0 -0.3 0.52 -1.5708 0 1.5708` "
               "(x y z yaw pitch roll), i.e. rpy (π/2, 0, −π/2) — its +y axis points up and reads +9.8 m/s² at rest; "
               "nuance's GPS stamps run 4.8 s behind its IMU clock (fixed in the bag by csv_import --gps-time-offset; "
