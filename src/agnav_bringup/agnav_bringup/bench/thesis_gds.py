@@ -7,6 +7,7 @@ a level geomagnetic-circle turn with the same sensor (same seed) before the test
 import argparse
 import json
 import math
+import time
 from dataclasses import dataclass
 
 import numpy as np
@@ -15,11 +16,12 @@ from agnav_common.frames import heading_from_yaw, rotation_matrix
 from agnav_drivers.sim import SCENARIOS, TractorSimulator, simulate
 from agnav_drivers.sim.route import straight
 from agnav_drivers.sim.terrain import TerrainParams
-from agnav_fusion.adaptive_line_enhancer import AleSettings, two_pass
+from agnav_fusion.adaptive_line_enhancer import AdaptiveLineEnhancer, AleSettings, two_pass
 from agnav_fusion.gds_drift_lsm import DelayedVwaSettings, DriftLsmSettings, GdsGyroSystem
 from agnav_fusion.gds_gyro_kf import GdsGyroKalmanFilter
 from agnav_fusion.gds_heading import (fit_ellipse, magnetic_heading, tilt_compensate, with_vertical_offset)
 from agnav_fusion.geomagnetic_model import MagneticModel
+from agnav_fusion.heading_estimators import ESTIMATORS, EstimatorSettings, HeadingEstimator
 from agnav_fusion.variance_weighted_average import VariableTargetVwa, VwaSettings
 
 ALE_TAPS = 75          # [IMPL] see ch3_rows
@@ -204,6 +206,33 @@ def ch3_rows(seed):
         _row("R3-6 drift-LSM corrected gyro heading error", "rms deg", 0.37, _rms_deg(rel(corrected) - rel(s.true))),
         _row("R3-7 GDS-gyro VWA heading error (absolute)", "rms deg", 0.32, _rms_deg(heading_err)),
     ]
+
+
+def cost_us(seed=1):
+    """µs per 50 Hz sample (this machine, Python) on the Ch. III run: each heading_node estimator (HeadingEstimator
+    fed the gyro, the GDS heading and 1 Hz fixes) and the per-sample GDS front end (ALE on both tilt axes, tilt
+    compensation, heading)."""
+    s = signals("ch3_gds_gyro", seed)
+    gds = np.angle(np.exp(1j * gds_heading(s)))
+    fixes = s.xy + np.random.default_rng(seed).normal(0.0, 0.02, s.xy.shape)
+    per_fix = int(round(1.0 / s.dt))
+    cost = {}
+    for name in ESTIMATORS:
+        est = HeadingEstimator(EstimatorSettings(estimator=name, imu_rate_hz=1.0 / s.dt))
+        start = time.perf_counter()
+        for k, t in enumerate(s.t):
+            est.on_gyro(t, s.rate[k], s.dt)
+            est.on_gds(t, gds[k])
+            if k % per_fix == 0:
+                est.on_fix(t, fixes[k, 0], fixes[k, 1], 4e-4, s.speed[k])
+        cost[f"heading_node {name}"] = (time.perf_counter() - start) / s.t.size * 1e6
+    ale_roll, ale_pitch = (AdaptiveLineEnhancer(AleSettings(n_taps=ALE_TAPS)) for _ in range(2))
+    start = time.perf_counter()
+    for k in range(s.t.size):
+        level = tilt_compensate(s.field[k], ale_roll.update(s.roll[k]), ale_pitch.update(s.pitch[k]))
+        magnetic_heading(level)
+    cost["GDS front end (ALE roll + pitch, tilt compensation, heading)"] = (time.perf_counter() - start) / s.t.size * 1e6
+    return cost
 
 
 def rows(seed=1):
