@@ -125,8 +125,9 @@ def smoother(run, **overrides):
 
     est = run_module(run, "agnav", arrival=run.gnss.t, prepare=enable_logs, **overrides)
     nsm = est["module"]
-    roll = kalman.smooth_log(nsm.roll_filter.log)[0][:, 0]
-    pitch = kalman.smooth_log(nsm.pitch_filter.log)[0][:, 0]
+    # a run without tilt sensor logs no attitude filter step: its output stands
+    roll, pitch = (kalman.smooth_log(f.log)[0][:, 0] if f.log else np.empty(0)
+                   for f in (nsm.roll_filter, nsm.pitch_filter))
     nav = kalman.smooth_log(nsm.ekf.log, angles=(IPHI,))[0]
     yaw = np.remainder(math.pi / 2 - nav[:, IPHI] + math.pi, 2 * math.pi) - math.pi
     known = est["valid"]  # before the heading is initialised (its variance reset per fix) the filter output stands
