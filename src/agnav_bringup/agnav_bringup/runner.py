@@ -36,6 +36,8 @@ def parse_args(argv):
     ap.add_argument("--bag", help="input bag to replay (default: the config's bag)")
     ap.add_argument("--live", action="store_true", help="no replay: run the nodes on live drivers/simulator")
     ap.add_argument("--rate", type=float, default=0.0, help="replay rate; 0 = as fast as possible without drops")
+    ap.add_argument("--exclude", action="append", default=[], metavar="TOPIC",
+                    help="bag topic not to replay (e.g. outputs of an earlier run that the graph publishes again)")
     ap.add_argument("--record", metavar="OUT", help="record to this rosbag2 folder (replaced if it exists)")
     ap.add_argument("--processes", action="store_true", help="one OS process per node")
     ap.add_argument("--duration", type=float, default=0.0, help="stop after this many seconds (0: bag end / SIGINT)")
@@ -147,6 +149,7 @@ def run(args):
             player = BagPlayerNode(parameter_overrides=[
                 Parameter("bag", value=str(bag)), Parameter("rate", value=args.rate),
                 Parameter("remap", value=[f"{a}:={b}" for a, b in config.bag_remap.items()] or [""]),
+                Parameter("exclude", value=args.exclude or [""]),
                 Parameter("progress", value=not args.quiet),
                 Parameter("cache_dir", value=str(REPO_ROOT / "build" / "bag_cache")),
                 Parameter("start_delay", value=2.0 if args.processes else 0.5),

@@ -34,7 +34,7 @@ class BagPlayerNode(Node):
         p = {name: self.declare_parameter(name, default).value for name, default in (
             ("bag", ""), ("rate", 1.0), ("topics", [""]), ("remap", [""]), ("start_offset", 0.0),
             ("loop", False), ("clock", True), ("progress", False), ("window", 20), ("start_delay", 1.0),
-            ("min_subscribers", 0), ("cache_dir", ""))}
+            ("min_subscribers", 0), ("cache_dir", ""), ("exclude", [""]))}
         if not p["bag"]:
             raise ValueError("parameter 'bag' (path of a rosbag2 folder, .mcap, .db3 or ROS 1 .bag) is required")
         self.rate = float(p["rate"])
@@ -49,8 +49,9 @@ class BagPlayerNode(Node):
         self.published = 0
         self.received = 0
         self.retries = 0
+        exclude = {t for t in p["exclude"] if t}
         for topic, msgtype in self.source.topics.items():
-            if topic == "/clock":
+            if topic == "/clock" or topic in exclude:
                 continue
             try:
                 cls = message_class(msgtype)
@@ -93,7 +94,8 @@ class BagPlayerNode(Node):
         for topic, pub in self.publishers_.items():
             if topic not in LATCHED_TOPICS and self.count_publishers(pub.topic_name) > 1:
                 raise RuntimeError(f"another node publishes {pub.topic_name}, which the bag replays as {topic}: "
-                                   "remap the bag topic (player parameter remap, config bag_remap) or the node's")
+                                   "remap the bag topic (player parameter remap, config bag_remap), or leave it "
+                                   "out (exclude, agnav run --exclude)")
 
     def _restart(self):
         self._iter = iter(self.source)
