@@ -14,40 +14,25 @@ import pytest
 pytest.importorskip("rclpy")
 
 from agnav_bringup.evaluate import evaluate_bags, read_bag  # noqa: E402
+from agnav_common.bagio import filter_bag  # noqa: E402
+from rosbags.highlevel import AnyReader  # noqa: E402
 
 SECONDS = 45.0
 REPO = Path(__file__).resolve().parents[2]
-LATCHED = ("/tf_static", "/map_datum")
 
 
-def head_of_bag(src, dst, seconds):
-    """Copy the first `seconds` of a rosbag2 (all topics, same types) to dst."""
-    from rosbags.highlevel import AnyReader
-    from rosbags.rosbag2 import Writer
-
-    from agnav_common.bagio import typestore
-    from agnav_drivers.sim.bag import _qos
-    store = typestore()
-    with AnyReader([Path(src)], default_typestore=store) as reader, Writer(dst, version=9) as writer:
-        end = reader.start_time + int(seconds * 1e9)
-        out = {}
-        for conn, t, raw in reader.messages():
-            if t > end:
-                break
-            if conn.topic not in out:
-                out[conn.topic] = writer.add_connection(conn.topic, conn.msgtype, typestore=store,
-                                                        offered_qos_profiles=[_qos(conn.topic in LATCHED)])
-            writer.write(out[conn.topic], t, raw)
-
-
-@pytest.fixture(scope="module")
-def replay(tmp_path_factory):
+@pytest.fixture(scope="module", params=[False, True], ids=["one_process", "processes"])
+def replay(tmp_path_factory, request):
+    """The graph in one process (rate 0), or one OS process per node over DDS (its default paced rate)."""
     tmp = tmp_path_factory.mktemp("nsm_graph")
     bag, out = tmp / "asphalt_head", tmp / "out"
-    head_of_bag(REPO / "bags" / "asphalt_loop", bag, SECONDS)
+    src = REPO / "bags" / "asphalt_loop"
+    with AnyReader([src]) as reader:
+        end = reader.start_time + int(SECONDS * 1e9)
+    filter_bag(src, bag, lambda topic, t: t <= end)
     env = dict(os.environ, ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
     proc = subprocess.run([sys.executable, "-m", "agnav_bringup.cli", "run", "nsm", "--bag", str(bag),
-                           "--record", str(out), "--quiet", "--no-eval"],
+                           "--record", str(out), "--quiet", "--no-eval", *(["--processes"] if request.param else [])],
                           cwd=REPO, env=env, capture_output=True, text=True, timeout=300)
     assert proc.returncode == 0, proc.stdout + proc.stderr
     return bag, out
@@ -76,3 +61,13 @@ def test_graph_publishes_only_initialised_finite_odometry(replay):
         values = [*m.pose.covariance, *m.twist.covariance, m.pose.pose.position.x, m.twist.twist.linear.x]
         assert all(map(math.isfinite, values))
         assert m.pose.covariance[0] > 0 and m.pose.covariance[35] > 0
+
+
+def test_gnss_correction_finds_the_attitude_of_each_fix(replay):
+    """gnss_correction_node pairs each fix with the module's /imu/data of its epoch (within 0.5 s): inputs that
+    reach the nodes out of order across topics leave fixes uncorrected."""
+    bag, out = replay
+    first = read_bag(out, ["/odometry/filtered"])["/odometry/filtered"][0][0]
+    fixes = [t for t, _ in read_bag(bag, ["/gnss/fix"])["/gnss/fix"] if t > first + 1.0]
+    corrected = read_bag(out, ["/gnss/fix_corrected"])["/gnss/fix_corrected"]
+    assert len(corrected) >= 0.9 * len(fixes)

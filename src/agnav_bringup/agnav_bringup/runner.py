@@ -30,12 +30,21 @@ from agnav_drivers.bag_player_node import BagPlayerNode  # noqa: E402
 from agnav_drivers.bag_recorder_node import BagRecorderNode  # noqa: E402
 
 
+# Across processes, rate 0 keeps every message but not their order across topics: a sample that a lagging
+# reader's full history rejects is resent at the writer's next heartbeat, seconds later, while other topics flow
+# on; filters that fuse several topics then see skewed inputs (nsm: horizontal 14.9 cm instead of 7.7). A paced
+# replay that the nodes keep up with avoids it (nsm at 5x real time over processes: same errors as one process).
+PROCESSES_RATE = 5.0
+
+
 def parse_args(argv):
     ap = argparse.ArgumentParser(prog="agnav run", description=__doc__.splitlines()[0])
     ap.add_argument("config", nargs="?", default="nsm", help="bundled config name or YAML path (default nsm)")
     ap.add_argument("--bag", help="input bag to replay (default: the config's bag)")
     ap.add_argument("--live", action="store_true", help="no replay: run the nodes on live drivers/simulator")
-    ap.add_argument("--rate", type=float, default=0.0, help="replay rate; 0 = as fast as possible without drops")
+    ap.add_argument("--rate", type=float, default=None,
+                    help=f"replay rate; 0 = as fast as possible without drops (default; {PROCESSES_RATE:g} with "
+                         "--processes)")
     ap.add_argument("--exclude", action="append", default=[], metavar="TOPIC",
                     help="bag topic not to replay (e.g. outputs of an earlier run that the graph publishes again)")
     ap.add_argument("--record", metavar="OUT", help="record to this rosbag2 folder (replaced if it exists)")
@@ -44,6 +53,15 @@ def parse_args(argv):
     ap.add_argument("--no-eval", action="store_true", help="skip the accuracy evaluation after a recorded replay")
     ap.add_argument("--quiet", action="store_true", help="no progress bar")
     return ap.parse_args(argv)
+
+
+def replay_rate(args):
+    if args.rate is not None:
+        if args.rate == 0.0 and args.processes:
+            print("agnav run: warning: --rate 0 across processes may reorder topics (see PROCESSES_RATE)",
+                  file=sys.stderr)
+        return args.rate
+    return PROCESSES_RATE if args.processes else 0.0
 
 
 def static_transform_node(config):
@@ -147,7 +165,7 @@ def run(args):
             children.wait_until_discovered(rclpy.create_node("agnav_runner"), timeout=30.0)
         if bag is not None:
             player = BagPlayerNode(parameter_overrides=[
-                Parameter("bag", value=str(bag)), Parameter("rate", value=args.rate),
+                Parameter("bag", value=str(bag)), Parameter("rate", value=replay_rate(args)),
                 Parameter("remap", value=[f"{a}:={b}" for a, b in config.bag_remap.items()] or [""]),
                 Parameter("exclude", value=args.exclude or [""]),
                 Parameter("progress", value=not args.quiet),

@@ -35,3 +35,19 @@ def typestore():
                 types.update(get_types_from_msg(text, name))
     store.register(types)
     return store
+
+
+def filter_bag(src, dst, keep):
+    """Copy the rosbag2 at src to dst (mcap) with the messages for which keep(topic, t_ns) is true; every
+    connection keeps its type and offered QoS (latched topics stay latched)."""
+    from rosbags.rosbag2 import Reader, Writer
+    from rosbags.rosbag2.enums import StoragePlugin
+
+    store = typestore()
+    with Reader(src) as reader, Writer(dst, version=9, storage_plugin=StoragePlugin.MCAP) as writer:
+        out = {c.id: writer.add_connection(c.topic, c.msgtype, typestore=store,
+                                           offered_qos_profiles=c.ext.offered_qos_profiles)
+               for c in reader.connections}
+        for c, t, raw in reader.messages():
+            if keep(c.topic, t):
+                writer.write(out[c.id], t, raw)

@@ -26,10 +26,11 @@ from pathlib import Path
 
 import numpy as np
 import yaml
+from rosbags.highlevel import AnyReader
 
 from agnav_bringup.evaluate import KEYS, evaluate_bags, odometry_arrays, read_bag
 from agnav_bringup.graph_config import load_config
-from agnav_common.bagio import typestore
+from agnav_common.bagio import filter_bag
 from agnav_common.frames import wrap_angle
 from agnav_common.geodesy import LocalTangentPlane
 
@@ -71,19 +72,9 @@ def config_variant(config, tmp, wheel):
 
 def without_fixes(src, dst, topic, windows):
     """Copy of bag src at dst without the `topic` messages inside windows (s after its first `topic` message)."""
-    from rosbags.rosbag2 import Reader, Writer
-    from rosbags.rosbag2.enums import StoragePlugin
-    store = typestore()
-    with Reader(src) as reader:
-        t0 = min(ts for c, ts, _ in reader.messages([c for c in reader.connections if c.topic == topic]))
-        with Writer(dst, version=9, storage_plugin=StoragePlugin.MCAP) as writer:
-            out = {c.id: writer.add_connection(c.topic, c.msgtype, typestore=store,
-                                               offered_qos_profiles=c.ext.offered_qos_profiles)
-                   for c in reader.connections}
-            for c, ts, raw in reader.messages():
-                if c.topic == topic and any(a <= (ts - t0) * 1e-9 <= b for a, b in windows):
-                    continue
-                writer.write(out[c.id], ts, raw)
+    with AnyReader([Path(src)]) as reader:
+        t0 = next(t for _, t, _ in reader.messages([c for c in reader.connections if c.topic == topic]))
+    filter_bag(src, dst, lambda name, t: name != topic or not any(a <= (t - t0) * 1e-9 <= b for a, b in windows))
 
 
 def replay(config, bag, out):
@@ -178,7 +169,6 @@ def score_outages(out, source, fix_topic, windows):
 
 
 def bag_duration(path):
-    from rosbags.highlevel import AnyReader
     with AnyReader([Path(path)]) as reader:
         return (reader.end_time - reader.start_time) * 1e-9
 
