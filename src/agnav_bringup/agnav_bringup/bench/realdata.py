@@ -109,19 +109,27 @@ def course_over_ground(t, e, n, half):
     return np.array(rows, float).reshape(-1, 4).T
 
 
-def score(out, source, fix_topic, half, bag_duration):
-    """Scores the recorded outputs against the fixes of the input bag `source`."""
+def outputs_and_fixes(out, source, fix_topic):
+    """The recorded odometry (arrays + horizontal σ per sample) and the input bag's fixes in its map frame."""
     bag = read_bag(out, ["/odometry/filtered", "/map_datum"])
     fixes = read_bag(source, [fix_topic])[fix_topic]
-    est = odometry_arrays(bag["/odometry/filtered"])
     datum = bag["/map_datum"][-1][1]
     tf, e, n = fixes_enu(fixes, (datum.latitude, datum.longitude, datum.altitude))
+    sigma = np.array([math.sqrt(m.pose.covariance[0] + m.pose.covariance[7]) for _, m in bag["/odometry/filtered"]])
+    return odometry_arrays(bag["/odometry/filtered"]), sigma, fixes, tf, e, n
+
+
+def position_error(est, tf, e, n, sel):
+    """Horizontal distance (m) of the odometry from the fixes selected by sel, at their epochs."""
+    return np.hypot(np.interp(tf[sel], est["t"], est["x"]) - e[sel], np.interp(tf[sel], est["t"], est["y"]) - n[sel])
+
+
+def score(out, source, fix_topic, half, bag_duration):
+    """Scores the recorded outputs against the fixes of the input bag `source`."""
+    est, sigma, fixes, tf, e, n = outputs_and_fixes(out, source, fix_topic)
     fix_sigma = float(np.median([math.sqrt(m.position_covariance[0]) for _, m in fixes]))
     values = np.column_stack([est[k] for k in ("x", "y", "z", "roll", "pitch", "yaw")])
-    sigma = np.array([math.sqrt(m.pose.covariance[0] + m.pose.covariance[7]) for _, m in bag["/odometry/filtered"]])
-    inside = (tf >= est["t"][0]) & (tf <= est["t"][-1])
-    dpos = np.hypot(np.interp(tf[inside], est["t"], est["x"]) - e[inside],
-                    np.interp(tf[inside], est["t"], est["y"]) - n[inside])
+    dpos = position_error(est, tf, e, n, (tf >= est["t"][0]) & (tf <= est["t"][-1]))
     tc, cog, speed, chord = course_over_ground(tf, e, n, half)
     moving = (speed > MIN_SPEED) & (tc >= est["t"][0]) & (tc <= est["t"][-1])
     yaw = wrap_angle(np.interp(tc[moving], est["t"], np.unwrap(est["yaw"])))
@@ -146,23 +154,16 @@ def score(out, source, fix_topic, half, bag_duration):
 
 def score_outages(out, source, fix_topic, windows):
     """Per outage window: the output's position against the removed fixes and its reported σ."""
-    bag = read_bag(out, ["/odometry/filtered", "/map_datum"])
-    est = odometry_arrays(bag["/odometry/filtered"])
-    sigma = np.array([math.sqrt(m.pose.covariance[0] + m.pose.covariance[7]) for _, m in bag["/odometry/filtered"]])
-    datum = bag["/map_datum"][-1][1]
-    tf, e, n = fixes_enu(read_bag(source, [fix_topic])[fix_topic], (datum.latitude, datum.longitude, datum.altitude))
+    est, sigma, _, tf, e, n = outputs_and_fixes(out, source, fix_topic)
     rel = tf - tf[0]
-
-    def error(sel):
-        return np.hypot(np.interp(tf[sel], est["t"], est["x"]) - e[sel], np.interp(tf[sel], est["t"], est["y"]) - n[sel])
-
     rows = []
     for a, b in windows:
         inside, after = (rel >= a) & (rel <= b), (rel > b) & (rel <= b + AFTER_OUTAGE)
-        err = error(inside)
+        err = position_error(est, tf, e, n, inside)
         t_in = est["t"][(est["t"] >= tf[0] + a) & (est["t"] <= tf[0] + b)]
         rows.append({"window_s": [a, b], "travelled_m": float(np.sum(np.hypot(np.diff(e[inside]), np.diff(n[inside])))),
-                     "end_m": float(err[-1]), "max_m": float(err.max()), "after_rms_m": _rms(error(after)),
+                     "end_m": float(err[-1]), "max_m": float(err.max()),
+                     "after_rms_m": _rms(position_error(est, tf, e, n, after)),
                      "sigma_end_m": float(np.interp(tf[inside][-1], est["t"], sigma)),
                      "max_output_gap_s": float(np.diff(t_in).max()) if t_in.size > 1 else None})
     return rows
