@@ -1,0 +1,108 @@
+"""Input guards every estimator and node applies once: measurement-time rules, value and covariance rules, and
+windowed rejection counters for diagnostics that describe the present. Plain Python, no ROS.
+
+Time rules (one `StreamClock` per input stream):
+- a stamp that is not finite or not positive, or not after the stream's last accepted stamp, is rejected;
+- a stamp more than `max_jump` s after the last accepted one is held as a candidate and rejected: it becomes the
+  stream's time only when `confirm` further stamps follow it consistently (a sensor back after a real gap or a
+  restarted clock); a lone future outlier is thus rejected and never moves the clock;
+- optionally a stamp is checked against a reference time (e.g. the IMU clock for a GNSS fix): it may lag by up to
+  `max_lag` s and lead by up to `max_lead` s.
+Covariance rules (`covariance`): NaN/Inf or negative variances, or a matrix that is not positive semi-definite
+after symmetrisation, are rejected; variances below a floor (zero) are raised to it and reported as floored.
+"""
+import math
+from collections import deque
+from dataclasses import dataclass
+
+import numpy as np
+
+
+def finite(*values):
+    """True when every value (scalars or arrays) is finite."""
+    return all(np.all(np.isfinite(np.asarray(v, dtype=float))) for v in values)
+
+
+@dataclass
+class StreamClockSettings:
+    max_jump: float = 5.0     # s, a larger step forward is held until `confirm` stamps follow it
+    confirm: int = 3          # consistent stamps after a jump that make it the stream's new time
+    max_lag: float = math.inf   # s a stamp may lie behind the reference time
+    max_lead: float = math.inf  # s a stamp may lie ahead of the reference time
+
+
+class StreamClock:
+    """Measurement-time guard of one stream; `check(t, ref=None)` returns None (accepted) or the reason."""
+
+    def __init__(self, settings=None):
+        self.settings = settings or StreamClockSettings()
+        self.last = None
+        self._candidate = []  # stamps after a jump, waiting for confirmation
+
+    def check(self, t, ref=None):
+        s = self.settings
+        if not math.isfinite(t) or t <= 0.0:
+            return "bad_stamp"
+        if ref is not None and not (ref - s.max_lag <= t <= ref + s.max_lead):
+            return "stamp_off_reference"
+        if self.last is not None and t <= self.last:
+            return "backwards_stamp"
+        if self.last is None or t - self.last <= s.max_jump:
+            self.last = t
+            self._candidate.clear()
+            return None
+        if self._candidate and not (self._candidate[-1] < t <= self._candidate[-1] + s.max_jump):
+            self._candidate.clear()
+        self._candidate.append(t)
+        if len(self._candidate) > s.confirm:
+            self.last = t
+            self._candidate.clear()
+            return None
+        return "future_stamp"
+
+
+def covariance(cov, floor_var=0.0):
+    """(covariance, problem): a symmetric PSD copy of `cov` with every variance at least `floor_var`, and None,
+    "floored" when a variance was raised; or (None, reason) for NaN/Inf, negative variances or an indefinite
+    matrix."""
+    c = np.array(cov, dtype=float)
+    if not np.all(np.isfinite(c)):
+        return None, "nan_covariance"
+    c = (c + c.T) / 2 if c.ndim == 2 else np.diag(c)
+    d = np.diag(c)
+    if np.any(d < 0):
+        return None, "negative_covariance"
+    problem = None
+    low = d < floor_var
+    if np.any(low):
+        c[np.diag_indices_from(c)] = np.maximum(d, floor_var)
+        problem = "floored_covariance"
+    if np.linalg.eigvalsh(c)[0] < -1e-9 * max(float(np.max(np.diag(c))), 1e-12):
+        return None, "indefinite_covariance"
+    return c, problem
+
+
+class EventWindow:
+    """Counts of named events: totals, and those of the last `window` seconds of a caller-given time base."""
+
+    def __init__(self, window=10.0):
+        self.window = window
+        self.totals = {}
+        self._recent = deque()  # (time, name)
+
+    def add(self, name, now):
+        self.totals[name] = self.totals.get(name, 0) + 1
+        self._recent.append((now, name))
+        self._expire(now)
+
+    def recent(self, now):
+        """{name: count} of the events in (now - window, now]."""
+        self._expire(now)
+        out = {}
+        for _, name in self._recent:
+            out[name] = out.get(name, 0) + 1
+        return out
+
+    def _expire(self, now):
+        while self._recent and (self._recent[0][0] <= now - self.window or self._recent[0][0] > now + self.window):
+            self._recent.popleft()
