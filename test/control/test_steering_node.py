@@ -12,6 +12,7 @@ rclpy = pytest.importorskip("rclpy")
 agnav_msgs = pytest.importorskip("agnav_msgs.msg")
 
 from agnav_common.frames import quaternion_from_euler  # noqa: E402
+from agnav_common.stamps import to_stamp  # noqa: E402
 from agnav_control.steering_node import SteeringNode  # noqa: E402
 from diagnostic_msgs.msg import DiagnosticArray  # noqa: E402
 from nav_msgs.msg import Odometry  # noqa: E402
@@ -41,20 +42,27 @@ class Harness:
         while time.monotonic() < end:
             self.executor.spin_once(timeout_sec=0.005)
 
-    def odom(self, x, y, yaw, speed=2.0, var=1e-4):
+    def odom(self, x, y, yaw, speed=2.0, var=1e-4, stamp=None, age=0.0, cov=None, twist_var=0.0):
+        """Publish one odometry message stamped `stamp` (s), else the node clock minus `age` (s); `cov`
+        {index: value} overrides pose covariance entries; returns the stamp."""
         msg = Odometry()
-        msg.header.stamp = self.node.get_clock().now().to_msg()
+        stamp = self.node.get_clock().now().nanoseconds * 1e-9 - age if stamp is None else stamp
+        msg.header.stamp = to_stamp(stamp)
         msg.header.frame_id, msg.child_frame_id = "map", "base_link"
         msg.pose.pose.position.x, msg.pose.pose.position.y = x, y
         q = quaternion_from_euler(0.0, 0.0, yaw)
         o = msg.pose.pose.orientation
         o.x, o.y, o.z, o.w = q
-        cov = [0.0] * 36
-        cov[0] = cov[7] = cov[35] = var
-        msg.pose.covariance = cov
+        pose_cov = [0.0] * 36
+        pose_cov[0] = pose_cov[7] = pose_cov[35] = var
+        for i, v in (cov or {}).items():
+            pose_cov[i] = v
+        msg.pose.covariance = pose_cov
+        msg.twist.covariance[0] = twist_var
         msg.twist.twist.linear.x = speed
         self.pub.publish(msg)
         self.spin(0.02)
+        return stamp
 
     def call(self, srv_type, name, **fields):
         client = self.peer.create_client(srv_type, name)

@@ -1,17 +1,24 @@
 """Straight-line autosteer node: /odometry/filtered -> /guidance/state + /steering/command, with AB line
-set/teach/engage services and the fail-safe watchdog (INTERFACES; issue 6)."""
+set/teach/engage services and the fail-safe watchdog (INTERFACES; issue 6).
+
+Odometry stamps (issue 16): one StreamClock per stream rejects bad, backwards and lone future stamps and stamps
+more than `watchdog.max_stamp_lead` s ahead of the reference time; the watchdog trips when the last stamp is more
+than `watchdog.max_stamp_age` s behind it. The reference time is the node clock (sim time under use_sim_time);
+without use_sim_time, a published /clock (a live simulator stamps on its own clock) is the reference instead."""
 import math
 
 from agnav_common.diagnostics import ERROR, OK, WARN, Diagnostics
 from agnav_common.frames import euler_from_quaternion
 from agnav_common.geodesy import LocalTangentPlane
+from agnav_common.input_guard import EventWindow, StreamClock, StreamClockSettings
 from agnav_common.node_main import main_for
 from agnav_common.qos import LATCHED_QOS, PUBLISHER_QOS, SENSOR_QOS
-from agnav_common.stamps import StampGuard, to_sec
+from agnav_common.stamps import to_sec
 from agnav_fusion.variance_weighted_average import VwaSettings
 from agnav_msgs.msg import GuidanceState, SteeringCommand
 from nav_msgs.msg import Odometry
 from rclpy.node import Node
+from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import NavSatFix
 from std_msgs.msg import Header
 from std_srvs.srv import SetBool, Trigger
@@ -19,7 +26,7 @@ from std_srvs.srv import SetBool, Trigger
 from .controllers import CONTROLLERS, make_controller, scalar_fields
 from .guidance_line import GuidanceLine, LineTeacher, ParallelPasses, VariableTargetLine
 from .limits import SteeringLimits
-from .watchdog import OdometrySample, Watchdog, WatchdogSettings
+from .watchdog import Watchdog, WatchdogSettings, odometry_sample
 
 MAX_DT = 0.5  # s, longest controller step accepted between two odometry messages
 
@@ -45,7 +52,12 @@ class SteeringNode(Node):
             panic_deceleration=p("watchdog.panic_deceleration", w.panic_deceleration),
             decel_window=p("watchdog.decel_window", w.decel_window),
             engage_position_std=p("watchdog.engage_position_std", w.engage_position_std),
-            engage_yaw_std=p("watchdog.engage_yaw_std", w.engage_yaw_std)), on_transition=self._on_transition)
+            engage_yaw_std=p("watchdog.engage_yaw_std", w.engage_yaw_std),
+            max_stamp_age=p("watchdog.max_stamp_age", w.max_stamp_age)), on_transition=self._on_transition)
+        self.stamps = StreamClock(StreamClockSettings(
+            max_jump=p("watchdog.max_stamp_jump", 1.0),     # s, a larger step is held until 3 stamps confirm it
+            max_lead=p("watchdog.max_stamp_lead", 0.1)))    # s a stamp may lie ahead of the reference time
+        self.events = EventWindow(p("diagnostics.window", 10.0))  # rejections of the last window s
         self.bidirectional = p("bidirectional", True)
         self.implement_width = p("implement_width", 0.0)
         self.teach_min_distance = p("teach.min_distance", 3.0)
@@ -66,9 +78,8 @@ class SteeringNode(Node):
         self.teacher = None
         self.variable_target = None
         self.pose = None         # (t, x, y, yaw, speed) of the last accepted odometry
-        self.guard = StampGuard()
-        self.rejected = {"stamp": 0, "non-finite": 0}
         self.angle = 0.0
+        self.clock_topic = None  # s, last /clock without use_sim_time
         if self.line_frame == "map" and self.line_a != self.line_b:
             self._set_line(GuidanceLine.from_points(self.line_a, self.line_b), "parameters")
 
@@ -76,6 +87,8 @@ class SteeringNode(Node):
         self.cmd_pub = self.create_publisher(SteeringCommand, "/steering/command", PUBLISHER_QOS)
         self.create_subscription(Odometry, "/odometry/filtered", self._on_odometry, SENSOR_QOS)
         self.create_subscription(NavSatFix, "/map_datum", self._on_datum, LATCHED_QOS)
+        if not self.get_parameter("use_sim_time").value:
+            self.create_subscription(Clock, "/clock", self._on_clock, SENSOR_QOS)
         self.create_service(Trigger, "steering/set_line_here", self._srv_set_line_here)
         self.create_service(SetBool, "steering/teach", self._srv_teach)
         self.create_service(SetBool, "steering/engage", self._srv_engage)
@@ -89,6 +102,16 @@ class SteeringNode(Node):
 
     def _now(self) -> float:
         return self.get_clock().now().nanoseconds * 1e-9
+
+    def _ref(self) -> float | None:
+        """Reference time of the odometry stamps (s); None until a simulated clock runs."""
+        if self.clock_topic is not None:
+            return self.clock_topic
+        now = self._now()
+        return now if now > 0.0 else None
+
+    def _on_clock(self, msg: Clock):
+        self.clock_topic = to_sec(msg.clock)
 
     # ---- line management -------------------------------------------------------------------------------
     def _set_line(self, line: GuidanceLine, source: str):
@@ -145,7 +168,7 @@ class SteeringNode(Node):
         if self.passes is not None and self.pose is not None:
             self.pass_index = self.passes.nearest(self.pose[1], self.pose[2])
             self.line = self.passes.line(self.pass_index)
-        return self.watchdog.request_engage(now)
+        return self.watchdog.request_engage(now, self._ref())
 
     def _srv_next_pass(self, _request, response):
         if self.passes is None or self.pose is None:
@@ -160,21 +183,27 @@ class SteeringNode(Node):
 
     # ---- control loop ----------------------------------------------------------------------------------
     def _on_odometry(self, msg: Odometry):
-        t = to_sec(msg.header.stamp)
-        reason = self.guard.check(t)
-        if reason is not None:
-            self.rejected["stamp"] += 1
+        t, now, ref = to_sec(msg.header.stamp), self._now(), self._ref()
+        reason = self.stamps.check(t, ref)
+        if reason is not None:  # dropped: the stream goes stale if it lasts
+            self.events.add("stamp_ahead_of_clock" if reason == "stamp_off_reference" else reason, now)
             return
         q = msg.pose.pose.orientation
         _, _, yaw = euler_from_quaternion(q.x, q.y, q.z, q.w)
-        cov = msg.pose.covariance
-        sample = OdometrySample(msg.pose.pose.position.x, msg.pose.pose.position.y, yaw, msg.twist.twist.linear.x,
-                                max(cov[0], cov[7]), cov[35])
-        fault = self.watchdog.odometry(self._now(), sample)
-        if fault is not None and fault.startswith("non-finite"):
-            self.rejected["non-finite"] += 1
+        sample, problem = odometry_sample(msg.pose.pose.position.x, msg.pose.pose.position.y, yaw,
+                                          msg.twist.twist.linear.x, msg.pose.covariance, msg.twist.covariance, t)
+        if sample is None:
+            self.events.add(problem.replace(" ", "_"), now)
+            self.watchdog.reject(now, f"invalid odometry: {problem}")
             self._publish_command(msg.header.stamp, 0.0)
             return
+        fault = self.watchdog.odometry(now, sample, ref)
+        if fault == "non-finite odometry":
+            self.events.add("non_finite", now)
+            self._publish_command(msg.header.stamp, 0.0)
+            return
+        if fault is not None and fault.startswith("odometry stamp"):
+            self.events.add("old_stamp", now)
         dt = t - self.pose[0] if self.pose is not None else 0.0
         self.pose = (t, sample.x, sample.y, yaw, sample.speed)
         if self.teacher is not None:
@@ -200,7 +229,7 @@ class SteeringNode(Node):
                                              steering_rate_limit=self.limits.max_rate))
 
     def _on_timer(self):
-        self.watchdog.check(self._now())
+        self.watchdog.check(self._now(), self._ref())
 
     def _on_transition(self, transition):
         if transition.engaged:
@@ -220,11 +249,16 @@ class SteeringNode(Node):
         last = wd.transitions[-1] if wd.transitions else None
         values = {"engaged": wd.engaged, "fault": wd.fault or "none", "controller": self.controller_name,
                   "line": "none" if self.line is None else f"{self.line.x:.2f},{self.line.y:.2f},{self.line.yaw:.4f}",
-                  "pass": self.pass_index, "rejected_stamps": self.rejected["stamp"],
-                  "rejected_non_finite": self.rejected["non-finite"], "steering_angle": f"{self.angle:.4f}",
+                  "pass": self.pass_index, "steering_angle": f"{self.angle:.4f}",
                   "last_transition": "none" if last is None else f"{last.time:.3f} {'engaged' if last.engaged else 'disengaged'}: {last.reason}"}
+        age = wd.stamp_age(self._ref())
+        values["stamp_age"] = "unknown" if age is None else f"{age:.3f}"
+        recent = self.events.recent(self._now())
+        for name, total in sorted(self.events.totals.items()):  # odometry rejected or tripping the watchdog
+            values[f"odometry.{name}"] = f"{recent.get(name, 0)} in the last {self.events.window:g} s, {total} total"
         if wd.engaged:
-            return OK, "engaged", values
+            return (WARN, f"engaged; odometry problems in the last {self.events.window:g} s", values) if recent \
+                else (OK, "engaged", values)
         if last is not None and not last.engaged and last.reason != "disengage requested" and wd.fault is not None:
             return ERROR, f"disengaged by fail-safe: {last.reason}", values
         return (WARN if wd.fault else OK), f"disengaged ({wd.fault or 'ready'})", values

@@ -1,8 +1,14 @@
-"""Engage state and fail-safe of the autosteer: disengage on stale, NaN, uncertain, slow or panic-braking
-odometry; engage only on an explicit request; never re-engage by itself."""
+"""Engage state and fail-safe of the autosteer: disengage on stale (no message, or an old stamp), NaN, invalid
+covariance, uncertain, slow or panic-braking odometry; engage only on an explicit request; never re-engage by
+itself."""
 import math
 from collections import deque
 from dataclasses import dataclass
+
+import numpy as np
+from agnav_common.input_guard import covariance, finite
+
+POSE_BLOCK = (0, 1, 5)  # x, y, yaw rows/columns of the 6x6 pose covariance the watchdog uses
 
 
 @dataclass
@@ -15,6 +21,9 @@ class WatchdogSettings:
     decel_window: float = 0.3        # s
     engage_position_std: float = 0.05  # m, stricter gates for an engage request: the fusion has converged
     engage_yaw_std: float = 0.01       # rad
+    # s: the last odometry stamp may lie this far behind the reference time (the node clock: sim time under
+    # use_sim_time); checked on every message, timer tick and engage request
+    max_stamp_age: float = 0.3
 
 
 @dataclass(frozen=True)
@@ -32,6 +41,19 @@ class OdometrySample:
     speed: float
     position_var: float  # m^2, larger of the x/y variances
     yaw_var: float       # rad^2
+    stamp: float | None = None  # s, measurement epoch; None: the stamp age is not checked
+
+
+def odometry_sample(x, y, yaw, speed, pose_cov, twist_cov, stamp=None):
+    """(OdometrySample, None) from nav_msgs/Odometry fields (36-element covariances), or (None, reason) when the
+    covariance used (pose x, y, yaw block; twist vx variance) has NaN/Inf, negative variances or is indefinite."""
+    pose, problem = covariance(np.asarray(pose_cov, dtype=float).reshape(6, 6)[np.ix_(POSE_BLOCK, POSE_BLOCK)])
+    if pose is None:
+        return None, f"pose {problem.replace('_', ' ')}"
+    twist, problem = covariance([twist_cov[0]])
+    if twist is None:
+        return None, f"twist {problem.replace('_', ' ')}"
+    return OdometrySample(x, y, yaw, speed, float(max(pose[0, 0], pose[1, 1])), float(pose[2, 2]), stamp), None
 
 
 class Watchdog:
@@ -48,27 +70,43 @@ class Watchdog:
         self._last_sample = None
         self._speeds = deque()  # (t, speed) over decel_window
 
-    def odometry(self, now: float, sample: OdometrySample) -> str | None:
-        """Record a message received at `now` (s); returns the fault it shows, or None when healthy."""
-        self.fault = self._assess(now, sample)
-        self._last_sample = sample
-        if self.fault is None or not self.fault.startswith("non-finite"):
-            self._last_time = now
+    def odometry(self, now: float, sample: OdometrySample, ref: float | None = None) -> str | None:
+        """Record a message received at `now` (s), its stamp judged against the reference time `ref` (s, None:
+        unknown); returns the fault it shows, or None when healthy."""
+        if not finite(sample.x, sample.y, sample.yaw, sample.speed, sample.position_var, sample.yaw_var):
+            return self.reject(now, "non-finite odometry")
+        health = self._assess(now, sample)
+        self._last_sample, self._last_time = sample, now
+        self.fault = self._age_fault(ref) or health
         self._disengage_on_fault(now)
         return self.fault
 
-    def check(self, now: float) -> str | None:
-        """Timer tick: detect stale odometry without new messages."""
+    def reject(self, now: float, reason: str) -> str:
+        """An invalid odometry message: a fault that does not refresh the stream (a stream of them goes stale)."""
+        self._speeds.clear()
+        self.fault = reason
+        self._disengage_on_fault(now)
+        return reason
+
+    def check(self, now: float, ref: float | None = None) -> str | None:
+        """Timer tick: detect odometry that stopped (receive time `now`) or whose stamp grew old (time `ref`)."""
         if self._last_time is None:
             self.fault = "no odometry yet"
         elif now - self._last_time > self.settings.stale_timeout:
             self.fault = f"odometry stale for {now - self._last_time:.3f} s"
+        else:
+            self.fault = self._age_fault(ref) or self.fault
         self._disengage_on_fault(now)
         return self.fault
 
-    def request_engage(self, now: float) -> tuple[bool, str]:
+    def stamp_age(self, ref: float | None) -> float | None:
+        """Age (s) of the last odometry stamp at reference time `ref`; None when either is unknown."""
+        stamp = self._last_sample.stamp if self._last_sample is not None else None
+        return None if stamp is None or ref is None else ref - stamp
+
+    def request_engage(self, now: float, ref: float | None = None) -> tuple[bool, str]:
         """Explicit engage request: accepted only while healthy."""
-        self.check(now)
+        self.check(now, ref)
         if self.fault is not None:
             return False, f"refused: {self.fault}"
         s, m = self.settings, self._last_sample
@@ -83,12 +121,18 @@ class Watchdog:
         if self.engaged:
             self._set(now, False, reason)
 
+    def _age_fault(self, ref: float | None) -> str | None:
+        if self._last_sample is None or self._last_sample.stamp is None:
+            return None
+        age = self.stamp_age(ref)
+        if age is None:
+            return "no clock to check the odometry stamp age against"
+        if age > self.settings.max_stamp_age:
+            return f"odometry stamp {age:.3f} s old (max {self.settings.max_stamp_age} s)"
+        return None
+
     def _assess(self, now: float, m: OdometrySample) -> str | None:
         s = self.settings
-        values = (m.x, m.y, m.yaw, m.speed, m.position_var, m.yaw_var)
-        if not all(math.isfinite(v) for v in values):
-            self._speeds.clear()
-            return "non-finite odometry"
         self._speeds.append((now, m.speed))
         while now - self._speeds[0][0] > s.decel_window:
             self._speeds.popleft()
