@@ -22,7 +22,7 @@ def spin(ex, n=20):
         ex.spin_once(timeout_sec=0.01)
 
 
-def run_node(ros, fixes, odom_stamps):
+def run_node(ros, fixes, odom_stamps, status=None, cov=(1e-4, 0, 0, 0, 1e-4, 0, 0, 0, 4e-4), cov_type=None):
     from nav_msgs.msg import Odometry
     from rclpy.executors import SingleThreadedExecutor
     from sensor_msgs.msg import NavSatFix, NavSatStatus
@@ -53,8 +53,9 @@ def run_node(ros, fixes, odom_stamps):
     for t, lat, lon, alt in fixes:
         fix = NavSatFix(latitude=lat, longitude=lon, altitude=alt)
         fix.header.stamp = to_stamp(t)
-        fix.status.status = NavSatStatus.STATUS_GBAS_FIX
-        fix.position_covariance = [1e-4, 0, 0, 0, 1e-4, 0, 0, 0, 4e-4]
+        fix.status.status = NavSatStatus.STATUS_GBAS_FIX if status is None else status
+        fix.position_covariance = [float(v) for v in cov]
+        fix.position_covariance_type = NavSatFix.COVARIANCE_TYPE_KNOWN if cov_type is None else cov_type
         fix_pub.publish(fix)
         spin(ex, 5)
     spin(ex)
@@ -81,7 +82,7 @@ def test_corrected_fix_of_a_known_pose(ros):
     assert out.header.frame_id == "base_link" and out.header.stamp.sec == 200
     cov = np.array(out.position_covariance).reshape(3, 3)
     assert np.all(np.isfinite(cov)) and cov[0, 0] > 1e-4  # attitude variance through the lever arm is added
-    assert counts["bad_value"] == 1 and counts["bad_stamp"] == 1
+    assert counts["bad_value"] == 1 and counts["backwards_stamp"] == 1
 
 
 def test_fix_without_recent_attitude_is_not_corrected(ros):
@@ -89,3 +90,23 @@ def test_fix_without_recent_attitude_is_not_corrected(ros):
     lat, lon, alt = (float(v) for v in plane.to_geodetic(0.0, 0.0, 3.0))
     got, counts = run_node(ros, [(300.0, lat, lon, alt)], odom_stamps=[200.0])
     assert got == [] and counts["no_attitude"] == 1
+
+
+def test_no_fix_and_unbelievable_covariances_are_not_republished(ros):
+    """NO_FIX (lat/lon 0) and NaN or negative covariances never become a corrected position."""
+    fixes = [(200.0, 0.0, 0.0, 0.0)]
+    got, counts = run_node(ros, fixes, odom_stamps=[199.95], status=-1)
+    assert got == [] and counts["no_fix"] == 1
+    lat, lon, alt = (float(v) for v in LocalTangentPlane(*DATUM).to_geodetic(0.0, 0.0, 3.0))
+    for cov, problem in (((math.nan,) * 9, "nan_covariance"), ((-1e-4, 0, 0, 0, -1e-4, 0, 0, 0, 4e-4),
+                                                             "negative_covariance")):
+        got, counts = run_node(ros, [(200.0, lat, lon, alt)], odom_stamps=[199.95], cov=cov)
+        assert got == [] and counts[problem] == 1
+
+
+def test_an_unknown_covariance_stays_unknown(ros):
+    from sensor_msgs.msg import NavSatFix
+    lat, lon, alt = (float(v) for v in LocalTangentPlane(*DATUM).to_geodetic(0.0, 0.0, 3.0))
+    got, _ = run_node(ros, [(200.0, lat, lon, alt)], odom_stamps=[199.95], cov=(0.0,) * 9,
+                      cov_type=NavSatFix.COVARIANCE_TYPE_UNKNOWN)
+    assert len(got) == 1 and got[0].position_covariance_type == NavSatFix.COVARIANCE_TYPE_UNKNOWN

@@ -1,21 +1,23 @@
 """GNSS tilt-correction node (SPEC §5.3, eq 4.18-4.24): /gnss/fix (antenna) + /odometry/filtered (attitude)
 -> /gnss/fix_corrected (base_link position). Lever arm from TF base_link->gnss_link; the attitude used is the
-one nearest the fix epoch; the covariance adds the attitude variance projected through the lever arm.
+one nearest the fix epoch; the covariance adds the attitude variance projected through the lever arm. Fixes without
+a position (status NO_FIX), with non-finite values or a covariance that cannot be believed, or stamped off the
+stream's time are not corrected and are counted; diagnostics report the last `diagnostic_window` s.
 """
-import math
 from collections import deque
 
 import numpy as np
 from agnav_common.diagnostics import OK, WARN, Diagnostics
+from agnav_common.input_guard import EventWindow, StreamClock, covariance
 from agnav_common.frames import euler_from_quaternion, heading_from_yaw
 from agnav_common.geodesy import LocalTangentPlane
 from agnav_common.node_main import main_for
 from agnav_common.qos import PUBLISHER_QOS, SENSOR_QOS
-from agnav_common.stamps import StampGuard, to_sec
+from agnav_common.stamps import to_sec
 from agnav_common.tf import TfBuffer
 from nav_msgs.msg import Odometry
 from rclpy.node import Node
-from sensor_msgs.msg import NavSatFix
+from sensor_msgs.msg import NavSatFix, NavSatStatus
 
 from agnav_fusion import tilt_correction
 
@@ -29,14 +31,27 @@ class GnssCorrectionNode(Node):
         self.max_attitude_age = p("max_attitude_age", 0.5)  # s between fix epoch and nearest attitude
         self.tf = TfBuffer(self)
         self.attitudes = deque(maxlen=400)  # (t, heading, pitch nose-up, roll, variances) thesis conventions
-        self.guard = StampGuard()
-        self.counts = {"corrected": 0, "bad_value": 0, "bad_stamp": 0, "no_attitude": 0, "no_tf": 0}
+        self.clock = StreamClock()
+        self.counts = {}
+        self.events = EventWindow(p("diagnostic_window", 10.0))  # s of node time the diagnostics describe
         self.pub = self.create_publisher(NavSatFix, "/gnss/fix_corrected", PUBLISHER_QOS)
         self.create_subscription(NavSatFix, "/gnss/fix", self.on_fix, SENSOR_QOS)
         self.create_subscription(Odometry, "/odometry/filtered", self.on_odom, SENSOR_QOS)
-        Diagnostics(self, "gnss_correction").add("inputs", lambda: (
-            OK if self.counts["corrected"] and sum(self.counts.values()) == self.counts["corrected"] else WARN,
-            f"{self.counts['corrected']} fixes corrected", self.counts))
+        Diagnostics(self, "gnss_correction").add("inputs", self.check_inputs)
+
+    def now(self):
+        return self.get_clock().now().nanoseconds * 1e-9
+
+    def count(self, event):
+        self.counts[event] = self.counts.get(event, 0) + 1
+        self.events.add(event, self.now())
+
+    def check_inputs(self):
+        recent = self.events.recent(self.now())
+        bad = {k: v for k, v in recent.items() if k != "corrected"}
+        message = ", ".join(f"{v} {k}" for k, v in sorted(bad.items())) or f"{recent.get('corrected', 0)} fixes corrected"
+        return (WARN if bad or not recent else OK), message, dict(self.counts, **{f"recent_{k}": v
+                                                                              for k, v in recent.items()})
 
     def on_odom(self, msg):
         q, c = msg.pose.pose.orientation, msg.pose.covariance
@@ -47,19 +62,28 @@ class GnssCorrectionNode(Node):
 
     def on_fix(self, msg):
         t = to_sec(msg.header.stamp)
-        if not np.all(np.isfinite([msg.latitude, msg.longitude, msg.altitude])):
-            self.counts["bad_value"] += 1
+        if msg.status.status < NavSatStatus.STATUS_FIX:
+            self.count("no_fix")
             return
-        if self.guard.check(t):
-            self.counts["bad_stamp"] += 1
+        if not np.all(np.isfinite([msg.latitude, msg.longitude, msg.altitude])):
+            self.count("bad_value")
+            return
+        known = msg.position_covariance_type != NavSatFix.COVARIANCE_TYPE_UNKNOWN
+        cov, problem = covariance(np.reshape(msg.position_covariance, (3, 3))) if known else (np.zeros((3, 3)), None)
+        if cov is None:
+            self.count(problem)
+            return
+        reason = self.clock.check(t)
+        if reason:
+            self.count(reason)
             return
         mount = self.tf.lookup(self.base_frame, self.gnss_frame)
         if mount is None:
-            self.counts["no_tf"] += 1
+            self.count("no_tf")
             return
         att = min(self.attitudes, key=lambda a: abs(a[0] - t), default=None)
         if att is None or abs(att[0] - t) > self.max_attitude_age:
-            self.counts["no_attitude"] += 1
+            self.count("no_attitude")
             return
         _, heading, pitch, roll, (v_roll, v_pitch, v_yaw) = att
         lever = tilt_correction.lever_from_flu(mount[0])
@@ -69,13 +93,12 @@ class GnssCorrectionNode(Node):
         out = NavSatFix(header=msg.header, status=msg.status)
         out.header.frame_id = self.base_frame
         out.latitude, out.longitude, out.altitude = float(lat), float(lon), float(alt)
-        tilt_var = lever[2] ** 2 * (min(v_roll, 1.0) + min(v_pitch, 1.0)) / 2 + \
-            (lever[0] ** 2 + lever[1] ** 2) * min(v_yaw, math.pi ** 2)
-        cov = np.array(msg.position_covariance).reshape(3, 3) + np.diag([tilt_var, tilt_var, 0.0])
-        out.position_covariance = [float(v) for v in cov.ravel()]
-        out.position_covariance_type = NavSatFix.COVARIANCE_TYPE_KNOWN
+        if known:  # an unknown covariance stays unknown
+            tilt_var = tilt_correction.tilt_variance(lever, v_roll, v_pitch, v_yaw)
+            out.position_covariance = [float(v) for v in (cov + np.diag([tilt_var, tilt_var, 0.0])).ravel()]
+            out.position_covariance_type = NavSatFix.COVARIANCE_TYPE_KNOWN
         self.pub.publish(out)
-        self.counts["corrected"] += 1
+        self.count("corrected")
 
 
 main = main_for(GnssCorrectionNode)

@@ -61,6 +61,14 @@ class NavEKF:
         self.P[IX, IBX] = self.P[IBX, IX] = self.P[IY, IBY] = self.P[IBY, IY] = -self.gnss_bias_var
         self.P[IPHI:IBX, IPHI:IBX] = np.diag([s.init_heading_sigma, s.init_bias_sigma, s.init_speed_sigma, 0.5]) ** 2
 
+    def reset_position(self, xy, xy_cov):
+        """Re-initialise the position (a fix the gate kept refusing): the old position, and what it implied for the
+        other states, is forgotten."""
+        self.x[IX], self.x[IY] = xy
+        self.P[:2, :] = self.P[:, :2] = 0.0
+        self.P[:2, :2] = np.asarray(xy_cov) + self.gnss_bias_var * np.eye(2)
+        self.P[IX, IBX] = self.P[IBX, IX] = self.P[IY, IBY] = self.P[IBY, IY] = -self.gnss_bias_var
+
     def transition(self, dt):
         """Jacobian F of one propagation step at the current state."""
         phi, v = self.x[IPHI], self.x[IV]

@@ -7,7 +7,7 @@ Estimators: "thesis" = attitude LSM (5.1-5.11) + Kise/drift LSM (4.1-4.17) + dea
 "agnav" = attitude KF (lag + acceleration model) + navigation EKF (nav_ekf.py). Both tilt-correct (4.18-4.24).
 """
 import math
-from collections import deque
+from collections import Counter, deque
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -16,6 +16,7 @@ from agnav_fusion import tilt_correction
 from agnav_fusion.attitude_kf import AttitudeKF, AttitudeKFSettings
 from agnav_fusion.attitude_lsm import AttitudeLSM, AttitudeLSMSettings
 from agnav_fusion.dead_reckoning import DeadReckoning, DeadReckoningSettings
+from agnav_fusion.front_end import InputGuard, InputGuardSettings
 from agnav_fusion.gnss_heading_lsm import GnssGyroHeading, GnssGyroHeadingSettings
 from agnav_fusion.nav_ekf import IB, IPHI, IV, IA, NavEKF, NavEKFSettings
 
@@ -42,7 +43,7 @@ class NavSensorModuleSettings:
     use_gnss_velocity: bool = True            # agnav: also fuse /gnss/vel (course and speed)
     velocity_sigma: float = 0.05              # m/s, 1-sigma per axis of GNSS velocity
     gate_chi2: float = 13.8                   # squared Mahalanobis gate, 2 dof 99.9 %
-    max_consecutive_rejects: int = 5          # then accept with re-initialised position (no lock-out)
+    gnss_reset_time: float = 30.0             # s of fixes refused by the gate, then the position restarts from them
     heading_init_speed: float = 0.3           # m/s of GNSS speed before the absolute heading is initialised
     heading_init_distance: float = 3.0        # m of chord between moving fixes that initialises the heading
     stationary_speed: float = 0.05            # m/s: slower fixes mark the vehicle still (yaw rate zero: gyro bias)
@@ -57,7 +58,11 @@ class NavSensorModuleSettings:
     incl_timeout: float = 0.5                 # s, older inclinometer data is stale (gyro-only attitude)
     untracked_tilt_sigma: float = 0.035       # rad, roll/pitch uncertainty while no tilt sensor reports (2°: field)
     gnss_timeout: float = 2.5                 # s without an accepted fix -> dead reckoning
-    max_dt: float = 0.5                       # s, longer IMU gaps are clamped and counted
+    max_dt: float = 0.5                       # s, a longer IMU gap is counted and bridged in steps of this length
+    gap_rate_sigma: float = 0.05              # rad/s, unknown yaw-rate change across an IMU gap
+    gap_accel_sigma: float = 0.3              # m/s^2, unknown acceleration across an IMU gap
+    max_gap: float = 10.0                     # s, after a longer IMU gap the navigation solution restarts
+    guard: InputGuardSettings = field(default_factory=InputGuardSettings)
 
 
 @dataclass
@@ -90,10 +95,6 @@ class _Sample:
     wheel: tuple = None       # agnav: (speed m/s, variance) of a wheel speed fused at this epoch
 
 
-def _finite(*values):
-    return all(np.all(np.isfinite(np.asarray(v, dtype=float))) for v in values)
-
-
 def euler_rates(body_rates, roll, pitch):
     """REP-103 Euler-angle rates (roll, pitch, yaw)' from FLU body rates (p, q, r)."""
     p, q, r = body_rates
@@ -110,6 +111,18 @@ class NavSensorModule:
         if s.estimator not in ("agnav", "thesis"):
             raise ValueError(f"unknown estimator {s.estimator!r}")
         self.lever = tilt_correction.lever_from_flu(s.lever_flu)
+        self.guard = InputGuard(s.guard)
+        self._history = deque()
+        self._start()
+
+    @property
+    def counters(self):
+        """Totals of every input and rejection event since the start (guard.recent(): the last seconds only)."""
+        return Counter(self.guard.totals)
+
+    def _start(self):
+        """(Re)start the estimators: at construction and after an IMU gap longer than max_gap."""
+        s = self.settings
         if s.estimator == "agnav":
             self.roll_filter, self.pitch_filter = AttitudeKF(s.roll_kf), AttitudeKF(s.pitch_kf)
             self.ekf = NavEKF(s.ekf)
@@ -117,19 +130,12 @@ class NavSensorModule:
             self.roll_filter, self.pitch_filter = AttitudeLSM(s.roll_lsm), AttitudeLSM(s.pitch_lsm)
             self.heading_lsm = GnssGyroHeading(s.heading)
             self.dr = DeadReckoning(s.dead_reckoning)
-        self.counters = {k: 0 for k in ("imu", "imu_bad_value", "imu_bad_stamp", "imu_gap", "incl_bad_value",
-                                        "incl_bad_stamp", "gnss", "gnss_bad_value", "gnss_bad_stamp",
-                                        "gnss_too_old", "gnss_gated", "gnss_forced", "velocity_gated", "wheel",
-                                        "wheel_bad_value", "wheel_bad_stamp", "wheel_gated")}
-        self._history = deque()
+        self._history.clear()
         self._pending_gnss = []
         self._incl = None            # (t, roll, pitch) REP-103
-        self._last_incl_t = -math.inf
-        self._last_gnss_t = -math.inf
         self._wheel = None           # agnav: latest wheel speed (t, speed, variance) not yet fused
-        self._last_wheel_t = -math.inf
         self._last_accepted_t = -math.inf
-        self._rejects = 0
+        self._rejected_since = None  # epoch of the first of the fixes the gate refuses in a row
         self._raw_heading = 0.0      # relative yaw before the absolute heading exists (agnav)
         self._fix = None             # latest accepted corrected fix (t, xyz, cov)
         self._heading_known = False  # agnav: absolute heading initialised from the GNSS course
@@ -148,26 +154,31 @@ class NavSensorModule:
     # ---- inputs -------------------------------------------------------------------------------------
     def inclinometer(self, t, roll, pitch):
         """Raw inclinometer reading (REP-103 rad) stamped at its epoch."""
-        if not self._valid("incl", t, self._last_incl_t, roll, pitch):
+        if not self.guard.accept("incl", t, roll, pitch):
             return False
-        self._last_incl_t = t
         zero_roll, zero_pitch = (math.radians(v) for v in self.settings.incl_zero_deg)
         self._incl = (t, roll - zero_roll, pitch - zero_pitch)
         return True
 
     def gnss(self, t, antenna_enu, cov, vel_enu=None, vel_var=None):
         """Antenna fix (map ENU m, 3x3 covariance m^2, optional ENU velocity m/s with its per-axis horizontal
-        variance m^2/s^2, at least velocity_sigma^2; default velocity_sigma^2) stamped at its epoch."""
-        if not self._valid("gnss", t, self._last_gnss_t, antenna_enu, cov, 0.0 if vel_enu is None else vel_enu):
+        variance m^2/s^2, at least velocity_sigma^2; default velocity_sigma^2) stamped at its epoch. A bad velocity
+        is dropped (counted) and the fix used without it."""
+        ref = self._history[-1].t if self._history else None
+        if not self.guard.accept("gnss", t, antenna_enu, ref=ref):
             return False
         if self._history and t < self._history[0].t:
-            self.counters["gnss_too_old"] += 1
+            self.guard.count("gnss_too_old")
             return False
-        self._last_gnss_t = t
-        self.counters["gnss"] += 1
-        floor = self.settings.velocity_sigma ** 2
-        vel_var = floor if vel_var is None or not _finite(vel_var) else max(float(vel_var), floor)
-        self._pending_gnss.append((t, np.asarray(antenna_enu, float), np.asarray(cov, float),
+        cov = self.guard.fix_covariance(cov)
+        if cov is None:
+            return False
+        self.guard.count("gnss")
+        if vel_enu is not None:
+            vel_var = self.guard.velocity_variance(vel_var, self.settings.velocity_sigma ** 2)
+            if vel_var is None or not self.guard.accept("vel", t, vel_enu):
+                vel_enu = None
+        self._pending_gnss.append((t, np.asarray(antenna_enu, float), cov,
                                    None if vel_enu is None else np.asarray(vel_enu, float), vel_var))
         self._drain_gnss()
         return True
@@ -175,10 +186,9 @@ class NavSensorModule:
     def wheel_speed(self, t, speed, var=None):
         """Forward ground speed (m/s, negative reversing) of base_link from wheel odometry or a radar, with its
         variance (None: wheel_speed_sigma), stamped at its epoch; fused by the agnav EKF at the next IMU sample."""
-        if not self._valid("wheel", t, self._last_wheel_t, speed, 0.0 if var is None else var):
+        if not self.guard.accept("wheel", t, speed, 0.0 if var is None else var):
             return False
-        self._last_wheel_t = t
-        self.counters["wheel"] += 1
+        self.guard.count("wheel")
         s = self.settings
         var = max(var or 0.0, s.wheel_speed_sigma ** 2) + (s.wheel_slip_sigma * speed) ** 2
         self._wheel = (t, float(speed), var)
@@ -186,14 +196,16 @@ class NavSensorModule:
 
     def imu(self, t, gyro_flu):
         """Body (base_link FLU) gyro rates (rad/s) at epoch t; advances the module. Returns the new NavState."""
-        last = self._history[-1].t if self._history else None
-        if not self._valid("imu", t, -math.inf if last is None else last, gyro_flu):
+        if not self.guard.accept("imu", t, gyro_flu):
             return None
-        self.counters["imu"] += 1
-        dt = 0.0 if last is None else t - last
-        if dt > self.settings.max_dt:
-            self.counters["imu_gap"] += 1
-            dt = self.settings.max_dt
+        self.guard.count("imu")
+        dt = t - self._history[-1].t if self._history else 0.0
+        if dt > self.settings.max_gap:
+            self.guard.count("imu_gap_restart")
+            self._start()
+            dt = 0.0
+        elif dt > self.settings.max_dt:
+            self.guard.count("imu_gap")
         self._step(t, dt, np.asarray(gyro_flu, dtype=float))
         self._drain_gnss()
         self._state = self._output()
@@ -201,16 +213,6 @@ class NavSensorModule:
 
     def state(self):
         return self._state
-
-    def _valid(self, kind, t, last_t, *values):
-        """Input guard: finite values and a positive stamp after last_t, else counted as {kind}_bad_value/_stamp."""
-        if not _finite(t, *values):
-            self.counters[f"{kind}_bad_value"] += 1
-            return False
-        if t <= 0 or t <= last_t:
-            self.counters[f"{kind}_bad_stamp"] += 1
-            return False
-        return True
 
     # ---- per-sample processing -----------------------------------------------------------------------
     def _step(self, t, dt, gyro):
@@ -258,8 +260,17 @@ class NavSensorModule:
 
     def _propagate(self, rate_cw, dt, still, wheel=None):
         """EKF prediction with the yaw rate; standing still, the gyro reading is its bias (zero-rate update);
-        a wheel speed (speed, variance) measures V."""
-        self.ekf.predict(rate_cw, dt)
+        a wheel speed (speed, variance) measures V. An IMU gap is bridged in steps of max_dt with the yaw rate and
+        acceleration it may have hidden added as noise."""
+        s = self.settings
+        if dt > s.max_dt:
+            n = math.ceil(dt / s.max_dt)
+            for _ in range(n):
+                self.ekf.P[IPHI, IPHI] += (s.gap_rate_sigma * dt) ** 2 / n
+                self.ekf.P[IV, IV] += (s.gap_accel_sigma * dt) ** 2 / n
+                self.ekf.predict(rate_cw, dt / n)
+        else:
+            self.ekf.predict(rate_cw, dt)
         if still:
             y, S, H, R = self.ekf.zero_rate_innovation(rate_cw, self.settings.still_rate_sigma ** 2)
             self.ekf.update(y, S, H, R)
@@ -313,23 +324,25 @@ class NavSensorModule:
             self._last_accepted_t = t
             self._fix = (t, corrected, cov)
 
-    def _gate(self, d2):
-        """True to accept; counts rejections and forces acceptance after too many in a row."""
+    def _gate(self, t, d2):
+        """True to accept; False (counted) to refuse; None once fixes have been refused for gnss_reset_time: then
+        the position restarts from the fix (a receiver jump that persists, or a dead reckoning gone wrong)."""
         if d2 <= self.settings.gate_chi2:
-            self._rejects = 0
+            self._rejected_since = None
             return True
-        self._rejects += 1
-        if self._rejects > self.settings.max_consecutive_rejects:
-            self.counters["gnss_forced"] += 1
-            self._rejects = 0
-            return None  # accept, re-initialising the position
-        self.counters["gnss_gated"] += 1
+        if self._rejected_since is None:
+            self._rejected_since = t
+        if t - self._rejected_since >= self.settings.gnss_reset_time:
+            self.guard.count("gnss_forced")
+            self._rejected_since = None
+            return None
+        self.guard.count("gnss_gated")
         return False
 
     def _fix_agnav(self, k, t, xy, R, v_ref, vel_var, speed, started=False):
         s, hist, ekf = self.settings, self._history, self.ekf
         snap = hist[k]
-        first = ekf.x is None
+        first, verdict = ekf.x is None, True
         if first:  # position and speed from the first fix; heading unknown until moving
             ekf.initialise(xy, R, snap.heading, speed or 0.0)
             ekf.P[IPHI, IPHI] = math.pi ** 2
@@ -359,28 +372,29 @@ class NavSensorModule:
             ekf.update(y, S, H, R)
         else:
             y, S, d2, H = ekf.position_innovation(xy, R)
-            verdict = self._gate(d2)
-            if verdict is False:
+            verdict = self._gate(t, d2)
+            doppler = self._doppler(v_ref, vel_var)
+            if verdict is False and not doppler:  # a refused fix's own difference velocity is no better
                 ekf.x, ekf.P = hist[-1].nav[0].copy(), hist[-1].nav[1].copy()
                 return False
             if verdict is None:
-                ekf.P[:2, :2] += np.outer(y, y)
-                y, S, d2, H = ekf.position_innovation(xy, R)
-            ekf.update(y, S, H, R)
-            if self._still and self._doppler(v_ref, vel_var):  # standing: zero speed (noise has no direction)
+                ekf.reset_position(xy, R)
+            elif verdict:
+                ekf.update(y, S, H, R)
+            if self._still and doppler:  # standing: zero speed (noise has no direction)
                 self._fuse(ekf.standstill_innovation(s.standstill_sigma ** 2), gated=False)
-            elif s.use_gnss_velocity and v_ref is not None:
+            elif s.use_gnss_velocity and v_ref is not None:  # a receiver velocity even when its fix is refused
                 Rv = vel_var * np.eye(2)
                 y, S, d2, H = ekf.velocity_innovation(v_ref, Rv)
                 if d2 <= s.gate_chi2:
                     ekf.update(y, S, H, Rv)
                 else:
-                    self.counters["velocity_gated"] += 1
+                    self.guard.count("velocity_gated")
         snap.nav, snap.heading = (ekf.x.copy(), ekf.P.copy()), ekf.x[IPHI]
         for j in range(k + 1, len(hist)):  # replay the IMU samples received since the epoch
             self._propagate(hist[j].rate_cw, hist[j].dt, hist[j].still, hist[j].wheel)
             hist[j].nav, hist[j].heading = (ekf.x.copy(), ekf.P.copy()), ekf.x[IPHI]
-        return True
+        return verdict is not False
 
     def _doppler(self, vel, vel_var):
         """True for a receiver velocity (variance at the velocity_sigma floor), not one from fix differences:
@@ -393,7 +407,7 @@ class NavSensorModule:
         if not gated or d2 <= self.settings.gate_chi2:
             self.ekf.update(y, S, H, R)
         else:
-            self.counters[counter] += 1
+            self.guard.count(counter)
 
     def _chord_course(self, xy, rel_heading, speed):
         """Heading (rad, cw from north) at this fix from the chord to the first moving fix once it is
@@ -414,10 +428,10 @@ class NavSensorModule:
     def _fix_thesis(self, k, t, xy, R, speed):
         hist = self._history
         snap = hist[k]
-        if snap.nav is not None:
+        if snap.nav is not None and self.heading_lsm.heading is not None:  # no gate on a heading not yet known
             y = xy - snap.nav[0]
             S = snap.nav[1] + R
-            verdict = self._gate(float(y @ np.linalg.solve(S, y)))
+            verdict = self._gate(t, float(y @ np.linalg.solve(S, y)))
             if verdict is False:
                 return False
         dt_fix = t - self._fix[0] if self._fix else 1.0
@@ -444,13 +458,9 @@ class NavSensorModule:
 
     def _tilt_variance(self):
         """Horizontal variance that attitude errors add to the corrected position (per axis)."""
-        vr, vp = self._attitude_variances()
         untracked = self.settings.untracked_tilt_sigma ** 2
-        vr = min(vr, 0.1) if np.isfinite(vr) else untracked
-        vp = min(vp, 0.1) if np.isfinite(vp) else untracked
-        vh = min(self._heading_variance(), 1.0)
-        a, b, h = self.lever
-        return h * h * (vr + vp) / 2 + (a * a + b * b) * vh
+        vr, vp = (v if np.isfinite(v) else untracked for v in self._attitude_variances())
+        return tilt_correction.tilt_variance(self.lever, vr, vp, self._heading_variance())
 
     def _rate_corrections(self):
         """Estimated gyro errors removed from the body rates (FLU); a tilt axis without attitude filter output

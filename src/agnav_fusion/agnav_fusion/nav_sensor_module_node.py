@@ -78,6 +78,8 @@ class NavSensorModuleNode(Node):
             raise ValueError(f"tilt_source must be inclinometer or accelerometer, not {self.tilt_source!r}")
         self.velocity_wait = p("velocity_wait", 0.2)  # s of IMU time a fix waits for its /gnss/vel
         self.fix_velocity_baseline = p("fix_velocity_baseline", 2.0)  # m; 0: no velocity without /gnss/vel
+        self.unknown_fix_sigma = p("unknown_fix_sigma", 1.0)  # m per axis of a fix whose covariance type is UNKNOWN
+        self.imu_timeout = p("imu_timeout", 0.5)  # s of node time without an IMU message: diagnostics say stale
         self.nsm = NavSensorModule(declare_settings(self))
         self.plane = None
         self.tf = TfBuffer(self)
@@ -97,9 +99,8 @@ class NavSensorModuleNode(Node):
         self.pending_fixes = []  # (t, enu, cov, deadline) waiting for their velocity
         self.recent_fixes = []   # (t, enu, cov) for the fix-difference velocity
         self.last_imu_t = 0.0
+        self.last_imu_arrival = None  # node time of the latest /imu/data_raw message
         self.published = 0
-        self.missing_tf = 0
-        self.no_fix = 0
         if len(datum) >= 3 and self.uses_gnss:
             self.set_datum(*datum[:3])
         diag = Diagnostics(self, "nav_sensor_module")
@@ -112,7 +113,7 @@ class NavSensorModuleNode(Node):
             return True
         mounts = self.tf.lookup_mounts(self.frames["base"], self.frames["imu"], self.frames["gnss"])
         if mounts is None:
-            self.missing_tf += 1
+            self.nsm.guard.count("missing_tf")
             return False
         imu, gnss = mounts
         incl = self.tf.lookup(self.frames["base"], self.frames["inclinometer"])
@@ -125,7 +126,11 @@ class NavSensorModuleNode(Node):
         self.datum_pub.publish(map_datum_message(lat, lon, alt, self.frames["map"], stamp or self.get_clock().now().to_msg()))
 
     # ---- inputs ---------------------------------------------------------------------------------------
+    def node_time(self):
+        return self.get_clock().now().nanoseconds * 1e-9
+
     def on_imu(self, msg):
+        self.last_imu_arrival = self.node_time()
         if not self.mounts_ready():
             return
         t = to_sec(msg.header.stamp)
@@ -149,12 +154,14 @@ class NavSensorModuleNode(Node):
         self.nsm.inclinometer(to_sec(msg.header.stamp), msg.roll, msg.pitch)
 
     def on_wheel(self, msg):
-        var = msg.twist.covariance[0]
-        self.nsm.wheel_speed(to_sec(msg.header.stamp), msg.twist.twist.linear.x, var if var > 0 else None)
+        var = msg.twist.covariance[0]  # 0 or -1: unknown (the module's wheel_speed_sigma); negative/NaN: rejected
+        var = None if var in (0.0, -1.0) else (var if var > 0 else math.nan)
+        self.nsm.wheel_speed(to_sec(msg.header.stamp), msg.twist.twist.linear.x, var)
 
     def on_vel(self, msg):
         v, c = msg.twist.twist.linear, msg.twist.covariance
-        var = (c[0] + c[7]) / 2 if c[0] > 0 and c[7] > 0 else None  # unknown: the module's velocity_sigma
+        # -1: unknown (the module's velocity_sigma); NaN or a negative variance: the velocity is dropped, counted
+        var = None if c[0] == -1.0 else ((c[0] + c[7]) / 2 if c[0] >= 0 and c[7] >= 0 else math.nan)
         self.velocities = (self.velocities + [(to_sec(msg.header.stamp), np.array([v.x, v.y, v.z]), var)])[-10:]
         self.submit_fixes(lambda fix: self.velocity_at(fix[0]) is not None)
 
@@ -183,16 +190,20 @@ class NavSensorModuleNode(Node):
 
     def on_fix(self, msg):
         if msg.status.status < NavSatStatus.STATUS_FIX:
-            self.no_fix += 1
+            self.nsm.guard.count("gnss_no_fix")
+            return
+        if not (np.all(np.isfinite([msg.latitude, msg.longitude, msg.altitude]))
+                and abs(msg.latitude) <= 90.0 and abs(msg.longitude) <= 180.0):
+            self.nsm.guard.count("gnss_bad_value")
             return
         if self.plane is None:
-            if not np.all(np.isfinite([msg.latitude, msg.longitude, msg.altitude])):
-                self.nsm.counters["gnss_bad_value"] += 1
-                return
             self.set_datum(msg.latitude, msg.longitude, msg.altitude, msg.header.stamp)
         t = to_sec(msg.header.stamp)
         enu = np.array(self.plane.to_enu(msg.latitude, msg.longitude, msg.altitude), dtype=float)
-        cov = np.array(msg.position_covariance, dtype=float).reshape(3, 3)
+        if msg.position_covariance_type == NavSatFix.COVARIANCE_TYPE_UNKNOWN:
+            cov = np.eye(3) * self.unknown_fix_sigma ** 2
+        else:
+            cov = np.array(msg.position_covariance, dtype=float).reshape(3, 3)
         self.pending_fixes.append((t, enu, cov, self.last_imu_t + self.velocity_wait))
         waits = self.velocities and self.velocity_wait > 0 and self.velocity_at(t) is None
         if not waits:
@@ -220,9 +231,14 @@ class NavSensorModuleNode(Node):
             self.tf_out.send(pose_transforms(self.frames, stamp, s.position, quat))
 
     def check_inputs(self):
-        c = dict(self.nsm.counters, missing_tf=self.missing_tf, no_fix=self.no_fix)
-        bad = sum(v for k, v in c.items() if k not in ("imu", "gnss", "wheel"))  # the rest count rejections
-        return (WARN if bad or self.imu_rotation is None else OK), f"{bad} inputs rejected", c
+        """Rejections over the guard's recent window (IMU time) and IMU staleness (node time): the present."""
+        recent = self.nsm.guard.recent()
+        bad = {k: v for k, v in recent.items() if k not in ("imu", "gnss", "wheel")}  # the rest are rejections
+        values = dict(self.nsm.counters, **{f"recent_{k}": v for k, v in recent.items()})
+        if self.last_imu_arrival is not None and self.node_time() - self.last_imu_arrival > self.imu_timeout:
+            return WARN, f"no IMU message for {self.node_time() - self.last_imu_arrival:.1f} s", values
+        message = ", ".join(f"{v} {k}" for k, v in sorted(bad.items())) or "inputs OK"
+        return (WARN if bad or self.imu_rotation is None else OK), message, values
 
     def check_state(self):
         s = self.nsm.state()

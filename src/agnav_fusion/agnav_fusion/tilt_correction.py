@@ -45,3 +45,13 @@ def lever_from_flu(xyz_flu):
     """Thesis lever (a, b, h) = (right, forward, up) from a base_link->gnss_link FLU translation (SPEC §2.3)."""
     x, y, z = (float(v) for v in xyz_flu)
     return np.array([-y, x, z])
+
+
+def tilt_variance(lever, var_roll, var_pitch, var_heading, max_tilt_var=0.1, max_heading_var=1.0):
+    """Horizontal variance (m^2 per axis) that attitude variances (rad^2) add to a tilt-corrected position through
+    the lever arm (right, forward, up): height x tilt, horizontal arm x heading. Each variance is capped (a
+    non-finite or negative one counts as the cap): beyond it the small-angle projection means nothing."""
+    vr, vp, vh = (min(v, cap) if math.isfinite(v) and v >= 0 else cap for v, cap in
+                  ((var_roll, max_tilt_var), (var_pitch, max_tilt_var), (var_heading, max_heading_var)))
+    a, b, h = lever
+    return h * h * (vr + vp) / 2 + (a * a + b * b) * vh

@@ -1,0 +1,130 @@
+"""NavSensorModule under faulty input (issue 16): stream time, covariances, GNSS steps, IMU gaps, honesty (3 sigma)."""
+import math
+
+import numpy as np
+import pytest
+from test_nav_sensor_module import LEVER, drive, errors
+
+from agnav_fusion.nav_ekf import IV
+from agnav_fusion.nav_sensor_module import NavSensorModuleSettings
+
+FAULT = (40.0, 60.0)  # s: the fault window of every case
+
+
+def during(t, window=FAULT):
+    return window[0] <= t < window[1]
+
+
+def sigma_ratios(out, t0=25.0):
+    """Per published sample from t0 on (a state older than its IMU epoch is no output): worst per-axis horizontal
+    |error| / sigma."""
+    ratios = []
+    for t, s, x, y, _ in out:
+        if t >= t0 and s.t == t:
+            err = np.abs(s.position[:2] - (x, y))
+            ratios.append(float(np.max(err / np.sqrt(np.diag(s.pose_cov)[:2]))))
+    return np.array(ratios)
+
+
+@pytest.fixture(scope="module")
+def clean_worst():
+    return sigma_ratios(drive(seconds=80.0)[1]).max()
+
+
+def assert_honest(out, clean_worst):
+    """Within 3 sigma at >= 99.5 % of the samples and no worse than the clean run's own worst (+10 %) anywhere:
+    the fault costs no honesty (the clean drive's worst is ~3 sigma, one fix after a turn)."""
+    r = sigma_ratios(out)
+    assert np.mean(r <= 3.0) >= 0.995
+    assert r.max() <= max(3.0, 1.1 * clean_worst)
+
+
+def test_a_lone_future_imu_stamp_does_not_stop_the_output():
+    def mutate(kind, args):
+        return (args[0] + 1000.0, args[1]) if kind == "imu" and abs(args[0] - 40.0) < 1e-6 else args
+    nsm, out = drive(seconds=70.0, mutate=mutate)
+    assert out[-1][1].t == pytest.approx(out[-1][0])       # still advancing with the IMU clock
+    assert nsm.counters["imu_future_stamp"] == 1
+    assert errors(out, 45.0)[0] < 0.08
+
+
+def test_a_lone_future_fix_stamp_does_not_shut_out_later_fixes():
+    def mutate(kind, args):
+        return (args[0] + 1000.0, *args[1:]) if kind == "gnss" and abs(args[0] - 40.0) < 1e-6 else args
+    nsm, out = drive(seconds=70.0, mutate=mutate)
+    assert nsm.counters["gnss_stamp_off_reference"] == 1
+    assert nsm.counters["gnss"] >= 58
+    assert errors(out, 45.0)[0] < 0.08 and not out[-1][1].dead_reckoning
+
+
+@pytest.mark.parametrize("variance", [-4e-4, math.nan])
+def test_fixes_with_negative_or_nan_covariance_are_rejected(variance, clean_worst):
+    def mutate(kind, args):
+        if kind == "gnss" and during(args[0]):
+            return (args[0], args[1], np.diag([variance, variance, 1e-3]), args[3])
+        return args
+    nsm, out = drive(seconds=80.0, mutate=mutate)
+    assert nsm.counters["gnss_negative_covariance"] + nsm.counters["gnss_nan_covariance"] == 20
+    assert all(np.all(np.linalg.eigvalsh(s.pose_cov) > 0) for _, s, *_ in out[1:])
+    assert_honest(out, clean_worst)
+    assert errors(out, 70.0)[0] < 0.08
+
+
+def test_zero_covariance_fixes_keep_the_receivers_last_covariance(clean_worst):
+    def mutate(kind, args):
+        return (args[0], args[1], np.zeros((3, 3)), args[3]) if kind == "gnss" and during(args[0]) else args
+    nsm, out = drive(seconds=80.0, mutate=mutate)
+    assert nsm.counters["gnss_floored_covariance"] == 20
+    assert_honest(out, clean_worst)
+
+
+def test_a_held_gnss_step_is_refused_and_dead_reckoned_honestly(clean_worst):
+    """5 m step held 20 s: every stepped fix refused, speed intact, error within 3 sigma, back at once after."""
+    def mutate(kind, args):
+        if kind == "gnss" and during(args[0]):
+            return (args[0], args[1] + np.array([5.0, 0.0, 0.0]), *args[2:])
+        return args
+    nsm, out = drive(seconds=80.0, mutate=mutate)
+    assert nsm.counters["gnss_gated"] == 20 and nsm.counters["gnss_forced"] == 0
+    assert all(abs(s.speed - 1.0) < 0.2 for t, s, *_ in out if t > 30.0)
+    assert_honest(out, clean_worst)
+    assert errors(out, 62.0)[0] < 0.1
+
+
+def test_a_persistent_jump_restarts_the_position_after_gnss_reset_time():
+    settings = NavSensorModuleSettings(lever_flu=LEVER, gnss_reset_time=10.0)
+
+    def mutate(kind, args):
+        return (args[0], args[1] + np.array([5.0, 0.0, 0.0]), *args[2:]) if kind == "gnss" and args[0] >= 40 else args
+    nsm, out = drive(settings, seconds=70.0, mutate=mutate)
+    assert nsm.counters["gnss_forced"] == 1
+    assert abs(nsm.ekf.x[IV] - 1.0) < 0.2
+    shifted = [(t, s, x + 5.0, y, yaw) for t, s, x, y, yaw in out]
+    assert errors(shifted, 55.0)[0] < 0.1
+
+
+@pytest.mark.parametrize("gap", [0.6, 2.0])
+def test_imu_gaps_are_bridged_with_growing_covariance(gap, clean_worst):
+    def mutate(kind, args):
+        return None if kind == "imu" and 40.0 < args[0] <= 40.0 + gap else args
+    nsm, out = drive(seconds=60.0, mutate=mutate)
+    assert nsm.counters["imu_gap"] == 1
+    after = [(t, s, x, y, yaw) for t, s, x, y, yaw in out if 40.0 + gap < t < 41.0 + gap]
+    assert errors(after)[0] < 0.1  # not left behind by speed x gap
+    assert_honest(out, clean_worst)
+
+
+def test_a_nan_velocity_drops_the_velocity_not_the_fix():
+    def mutate(kind, args):
+        return (*args[:3], np.full(3, math.nan)) if kind == "gnss" and during(args[0]) else args
+    nsm, out = drive(seconds=70.0, mutate=mutate)
+    assert nsm.counters["vel_bad_value"] == 20 and nsm.counters["gnss_gated"] == 0
+    assert not any(s.dead_reckoning for t, s, *_ in out if during(t))
+
+
+def test_rejections_leave_the_recent_window():
+    def mutate(kind, args):
+        return (args[0], [math.nan, 0.0, 0.0], *args[2:]) if kind == "gnss" and abs(args[0] - 40.0) < 1e-6 else args
+    nsm, _ = drive(seconds=60.0, mutate=mutate)
+    assert nsm.counters["gnss_bad_value"] == 1
+    assert "gnss_bad_value" not in nsm.guard.recent()
