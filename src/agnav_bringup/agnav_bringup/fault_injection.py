@@ -161,3 +161,31 @@ def bag_span(path):
     from rosbags.rosbag2 import Reader
     with Reader(path) as reader:
         return reader.start_time * 1e-9, reader.end_time * 1e-9
+
+
+def repeat_bag(src, dst, copies, once=("/tf_static", "/map_datum")):
+    """Copy the rosbag2 at src `copies` times end to end into dst (a long replay for memory tests): copy k has
+    log times and header stamps shifted by k × (the bag's length + 10 ms); `once` topics only from the first copy.
+    Stamps are patched in the CDR bytes, so every other message must begin with a std_msgs/Header."""
+    import struct
+
+    from rosbags.rosbag2 import Reader, Writer
+    from rosbags.rosbag2.enums import StoragePlugin
+
+    store = typestore()
+    with Reader(src) as reader, Writer(dst, version=9, storage_plugin=StoragePlugin.MCAP) as writer:
+        out = {c.id: writer.add_connection(c.topic, c.msgtype, typestore=store,
+                                           offered_qos_profiles=c.ext.offered_qos_profiles)
+               for c in reader.connections}
+        period = reader.end_time - reader.start_time + 10_000_000
+        for k in range(copies):
+            for c, t, raw in reader.messages():
+                if k and c.topic in once:
+                    continue
+                if k:
+                    sec, nsec = struct.unpack_from("<iI", raw, 4)  # after the 4-byte CDR encapsulation header
+                    sec, nsec = divmod(sec * 1_000_000_000 + nsec + k * period, 1_000_000_000)
+                    raw = bytearray(raw)
+                    struct.pack_into("<iI", raw, 4, sec, nsec)
+                writer.write(out[c.id], t + k * period, bytes(raw))
+    return period * copies * 1e-9

@@ -28,7 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from agnav_bringup.evaluate import error_series, move_datum, odometry_arrays, read_bag
-from agnav_bringup.fault_injection import FaultCase, bag_span, mutate_bag
+from agnav_bringup.fault_injection import FaultCase, bag_span, mutate_bag, repeat_bag
 from agnav_common.frames import euler_from_quaternion, wrap_angle
 
 REPO = Path(__file__).resolve().parents[4]
@@ -245,6 +245,40 @@ def case_first_hit(case_bag, case, start):
     return after[0] if after and case.kind != "drop" else start + case.t0
 
 
+def rss_mb(pid):
+    """Resident set size of a process in MB (/proc; psutil is not a dependency)."""
+    for line in Path(f"/proc/{pid}/status").read_text().splitlines():
+        if line.startswith("VmRSS:"):
+            return int(line.split()[1]) / 1024.0
+    return math.nan
+
+
+def memory(minutes, rate, domain, tmp):
+    """RSS slope (MB/min) of `agnav run nsm` replaying asphalt_loop repeated end to end at `rate` for `minutes`
+    of wall time (no recording), fitted after the first fifth (start-up)."""
+    config, src, _, _, _ = GRAPHS["nsm"]
+    bag = Path(tmp) / "nsm_long"
+    length = bag_span(src)[1] - bag_span(src)[0]
+    log_s = repeat_bag(src, bag, max(1, math.ceil(minutes * 60 * rate / length)))
+    env = dict(os.environ, ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST", ROS_DOMAIN_ID=str(domain))
+    proc = subprocess.Popen([sys.executable, "-m", "agnav_bringup.cli", "run", config, "--bag", str(bag), "--rate",
+                             str(rate), "--duration", str(minutes * 60), "--quiet", "--no-eval"], env=env, cwd=REPO,
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    start, samples = time.monotonic(), []
+    while proc.poll() is None:
+        try:
+            samples.append((time.monotonic() - start, rss_mb(proc.pid)))
+        except OSError:
+            break
+        time.sleep(2.0)
+    err = proc.communicate()[1]
+    a = np.array([s for s in samples if s[0] >= 0.2 * minutes * 60 and math.isfinite(s[1])], float).reshape(-1, 2)
+    slope = float(np.polyfit(a[:, 0] / 60, a[:, 1], 1)[0]) if len(a) > 2 else None
+    return {"memory_slope_mb_per_min": slope, "pass": slope is not None and slope < 1.0, "rc": proc.returncode,
+            "minutes": minutes, "rate": rate, "bag_log_s": log_s, "rss_start_mb": samples[0][1] if samples else None,
+            "rss_end_mb": samples[-1][1] if samples else None, "error": err.strip().splitlines()[-3:]}
+
+
 CRITERIA = ("gap_ok", "stamps_ok", "sigma_ok", "recovered_ok", "detected_ok")
 
 
@@ -341,7 +375,19 @@ def main(argv=None):
     ap.add_argument("--domain-id", type=int, default=int(os.environ.get("ROS_DOMAIN_ID", "0")),
                     help="ROS_DOMAIN_ID of the replays (default: the environment's)")
     ap.add_argument("--keep", metavar="DIR", help="keep the mutated bags and recordings in DIR")
+    ap.add_argument("--memory", action="store_true", help="only the memory test: RSS slope of a long nsm replay")
+    ap.add_argument("--memory-minutes", type=float, default=10.0, help="wall minutes of the memory test")
+    ap.add_argument("--rate", type=float, default=20.0, help="replay rate of the memory test")
     args = ap.parse_args(argv)
+    if args.memory:
+        with tempfile.TemporaryDirectory(prefix="agnav_faults_mem_") as tmp:
+            res = memory(args.memory_minutes, args.rate, args.domain_id, args.keep or tmp)
+        print(f"memory: RSS {_f(res['rss_start_mb'], '.0f')} -> {_f(res['rss_end_mb'], '.0f')} MB over "
+              f"{res['minutes']:g} min at rate {res['rate']:g}: slope {_f(res['memory_slope_mb_per_min'], '.2f')} "
+              f"MB/min ({'pass' if res['pass'] else 'FAIL'}: < 1 MB/min); runner rc {res['rc']}")
+        if args.json:
+            print(json.dumps(res))
+        return 0
     names = {n for n in args.cases.split(",") if n}
     known = {c.name for g, spec in GRAPHS.items() for c in cases_for(g, spec[2])}
     if names - known:
