@@ -8,6 +8,7 @@ COMMANDS = {
     "sim": ("agnav_drivers.sim.cli", "simulate a scenario into a bag"),
     "eval": ("agnav_bringup.evaluate", "score a recorded output against ground truth"),
     "calibrate": ("agnav_bringup.calibrate", "tilt-sensor zeros from a recorded park / turn round / park drive"),
+    "recover": (None, "agnav recover DIR: finish a recording whose run was killed (keeps every flushed chunk)"),
 }
 
 
@@ -23,6 +24,21 @@ def bench(argv):
     return importlib.import_module(f"agnav_bringup.bench.{argv[0]}").main(argv[1:])
 
 
+def recover(argv):
+    if len(argv) != 1 or argv[0].startswith("-"):
+        print("usage: agnav recover DIR\nfinish the rosbag2 folder of a killed `agnav run --record DIR` (messages "
+              "up to about a second before the kill are kept)")
+        return 0 if argv and argv[0] in ("-h", "--help") else 2
+    from agnav_common.bagio import recover_bag
+    try:
+        count = recover_bag(argv[0])
+    except (OSError, ValueError) as exc:
+        print(f"agnav recover: error: {exc}", file=sys.stderr)
+        return 2
+    print(f"agnav recover: {argv[0]}: {count} messages kept")
+    return 0
+
+
 def main(argv=None):
     argv = sys.argv[1:] if argv is None else argv
     if not argv or argv[0] in ("-h", "--help") or argv[0] not in COMMANDS:
@@ -30,8 +46,13 @@ def main(argv=None):
         return 0 if argv and argv[0] in ("-h", "--help") else 2
     if argv[0] == "bench":
         return bench(argv[1:])
+    if argv[0] == "recover":
+        return recover(argv[1:])
     module = importlib.import_module(COMMANDS[argv[0]][0])
-    return int(module.main(argv[1:]) or 0)
+    try:
+        return int(module.main(argv[1:]) or 0)
+    except KeyboardInterrupt:  # Ctrl-C outside a graph run (e.g. during an evaluation): no traceback
+        return 130
 
 
 if __name__ == "__main__":

@@ -1,8 +1,9 @@
 """`agnav run`: start a graph config in one process (one executor) or one OS process per node.
 
 The bag player and recorder always live in the runner's process; configured nodes join them there, or
-run as child processes (`--processes`, the same graph over DDS). SIGINT/SIGTERM stop everything; a node
-that raises or a child process that dies makes the runner exit non-zero with its error.
+run as child processes (`--processes`, the same graph over DDS). SIGINT/SIGTERM stop everything (exit 0).
+Exit 2 with one line for a config or node that cannot start (YAML error, unknown key or parameter, bad value);
+exit 1 with one line when a node raises while running or a child process dies.
 """
 import argparse
 import os
@@ -16,15 +17,19 @@ from pathlib import Path
 
 import yaml
 
-from agnav_bringup.graph_config import REPO_ROOT, load_config
+from agnav_bringup.graph_config import REPO_ROOT, ConfigError, load_config
 
 os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")  # DDS never leaves this host
 
 import rclpy  # noqa: E402  (after the discovery range is fixed)
+from rclpy.executors import ExternalShutdownException  # noqa: E402
 from rclpy.experimental import EventsExecutor  # noqa: E402
 from rclpy.parameter import Parameter  # noqa: E402
 
+from agnav_common.bagio import unfinished  # noqa: E402
 from agnav_common.frames import quaternion_from_euler  # noqa: E402
+from agnav_common.node_main import (PARENT_ENV, check_parameter_names, init_without_signal_handlers,  # noqa: E402
+                                    one_line, stop_on_signals)
 from agnav_common.tf import StaticTransformPublisher, make_transform  # noqa: E402
 from agnav_drivers.bag_player_node import BagPlayerNode  # noqa: E402
 from agnav_drivers.bag_recorder_node import BagRecorderNode  # noqa: E402
@@ -42,6 +47,8 @@ def parse_args(argv):
     ap.add_argument("config", nargs="?", default="nsm", help="bundled config name or YAML path (default nsm)")
     ap.add_argument("--bag", help="input bag to replay (default: the config's bag)")
     ap.add_argument("--live", action="store_true", help="no replay: run the nodes on live drivers/simulator")
+    ap.add_argument("--sim-time", action="store_true",
+                    help="live runs: nodes follow /clock of an external simulator (config key use_sim_time)")
     ap.add_argument("--rate", type=float, default=None,
                     help=f"replay rate; 0 = as fast as possible without drops (default; {PROCESSES_RATE:g} with "
                          "--processes)")
@@ -77,13 +84,12 @@ def static_transform_node(config):
     return node
 
 
-def drained(recorder, quiet):
-    """True once the graph has been quiet (nothing recorded) for `quiet` seconds after the replay ended."""
+def drained(recorder, finished_at, quiet):
+    """True once the graph has been quiet (nothing recorded) for `quiet` seconds after the replay ended
+    (at monotonic time `finished_at`; also when nothing was recorded at all)."""
     if recorder is None:
         return True
-    if recorder.last_write is None or time.monotonic() - recorder.last_write < quiet:
-        return False
-    return True
+    return time.monotonic() - max(recorder.last_write or 0.0, finished_at) >= quiet
 
 
 def params_of(spec, use_sim_time):
@@ -97,28 +103,30 @@ class ChildProcesses:
 
     def __init__(self, specs, use_sim_time, workdir):
         self.procs = []
+        env = dict(os.environ, **{PARENT_ENV: str(os.getpid())})  # children stop if this runner is killed
         for spec in specs:
             exe = shutil.which(spec.executable) or str(Path(sys.prefix) / "bin" / spec.executable)
-            pfile = Path(workdir) / f"{spec.name or spec.executable}.yaml"
+            pfile = Path(workdir) / f"{spec.label}.yaml"
             pfile.write_text(yaml.safe_dump({"/**": {"ros__parameters": params_of(spec, use_sim_time)}}))
             cmd = [exe] + spec.ros_args() + ["--params-file", str(pfile)]
-            self.procs.append((spec, subprocess.Popen(cmd, start_new_session=True)))
+            self.procs.append((spec, subprocess.Popen(cmd, start_new_session=True, env=env)))
 
-    def wait_until_discovered(self, probe, timeout):
+    def wait_until_discovered(self, probe, timeout, stop):
         """Block until every child node is in the ROS graph (a replay must not start before)."""
-        names = {spec.name or spec.executable for spec, _ in self.procs}
+        names = {spec.label for spec, _ in self.procs}
         deadline = time.monotonic() + timeout
-        while time.monotonic() < deadline and not self.failure() and not self.finished():
+        while time.monotonic() < deadline and not self.failure() and not self.finished() and not stop:
             if names <= set(probe.get_node_names()):
                 break
             time.sleep(0.1)
         probe.destroy_node()
 
     def failure(self):
-        """Description of the first child that has exited with an error, else None."""
+        """(description, exit status for the runner) of the first child that has exited with an error, else None;
+        status 2 when the child could not start (it printed the reason)."""
         for spec, proc in self.procs:
             if proc.poll() is not None and proc.returncode != 0:
-                return f"node '{spec.name or spec.executable}' exited with code {proc.returncode}"
+                return f"node '{spec.label}' exited with code {proc.returncode}", 2 if proc.returncode == 2 else 1
         return None
 
     def finished(self):
@@ -138,40 +146,74 @@ class ChildProcesses:
                 proc.wait()
 
 
-def run(args):
-    config = load_config(args.config)
-    bag = None if args.live else (Path(args.bag) if args.bag else config.bag_path())
-    use_sim_time = bag is not None
-    record = Path(args.record) if args.record else None
-    if record is not None and record.exists():
-        shutil.rmtree(record)
+def prepare_record(record):
+    """Make way for a recording at `record`: an earlier recording is replaced, anything else is kept."""
+    if record is None or not record.exists():
+        return
+    if unfinished(record):
+        raise ConfigError(f"{record} holds an unfinished recording (a killed run): keep it with "
+                          f"`agnav recover {record}`, or delete it")
+    if not record.is_dir() or (any(record.iterdir()) and not (record / "metadata.yaml").exists()):
+        raise ConfigError(f"{record} exists and is not a recording; refusing to replace it")
+    shutil.rmtree(record)
 
-    rclpy.init(args=["--ros-args"])
-    stopping = []
-    signal.signal(signal.SIGTERM, lambda *_: stopping.append("SIGTERM"))
-    nodes, children, player, recorder, error = [], None, None, None, None
+
+def build_nodes(config, use_sim_time):
+    """The configured nodes in this process; each must declare every parameter the config gives it."""
+    nodes = []
+    for spec in config.nodes:
+        try:
+            overrides = [Parameter(k, value=v) for k, v in params_of(spec, use_sim_time).items()]
+            node = spec.node_class()(parameter_overrides=overrides, cli_args=spec.ros_args())
+        except Exception as exc:  # bad value (descriptor range, node check), unknown executable: one line
+            raise ConfigError(f"node '{spec.label}': {one_line(exc)}") from exc
+        nodes.append(node)
+        try:
+            check_parameter_names(node, spec.parameters)
+        except ValueError as exc:
+            for built in nodes:
+                built.destroy_node()
+            raise ConfigError(str(exc)) from None
+    return nodes
+
+
+def run(args):
+    try:
+        config = load_config(args.config)
+        record = Path(args.record) if args.record else None
+        prepare_record(record)
+    except ConfigError as exc:
+        print(f"agnav run: error: {exc}", file=sys.stderr)
+        return 2
+    bag = None if args.live else (Path(args.bag) if args.bag else config.bag_path())
+    use_sim_time = bag is not None or args.sim_time or config.use_sim_time
+
+    init_without_signal_handlers(["--ros-args"])
+    stopping = stop_on_signals()  # Ctrl-C / SIGTERM: leave the loop, close everything, exit 0
+    nodes, children, player, recorder, error, status = [], None, None, None, None, 0
     workdir = tempfile.mkdtemp(prefix="agnav_run_")
     try:
         if args.processes:
             children = ChildProcesses(config.nodes, use_sim_time, workdir)
         else:
-            for spec in config.nodes:
-                overrides = [Parameter(k, value=v) for k, v in params_of(spec, use_sim_time).items()]
-                nodes.append(spec.node_class()(parameter_overrides=overrides, cli_args=spec.ros_args()))
+            nodes = build_nodes(config, use_sim_time)
         static = static_transform_node(config)
         if static is not None:
             nodes.append(static)
         if children:
-            children.wait_until_discovered(rclpy.create_node("agnav_runner"), timeout=30.0)
+            children.wait_until_discovered(rclpy.create_node("agnav_runner"), timeout=30.0, stop=stopping)
         if bag is not None:
-            player = BagPlayerNode(parameter_overrides=[
-                Parameter("bag", value=str(bag)), Parameter("rate", value=replay_rate(args)),
-                Parameter("remap", value=[f"{a}:={b}" for a, b in config.bag_remap.items()] or [""]),
-                Parameter("exclude", value=args.exclude or [""]),
-                Parameter("progress", value=not args.quiet),
-                Parameter("cache_dir", value=str(REPO_ROOT / "build" / "bag_cache")),
-                Parameter("start_delay", value=2.0 if args.processes else 0.5),
-                Parameter("min_subscribers", value=1 if record is not None else 0)])
+            try:
+                player = BagPlayerNode(parameter_overrides=[
+                    Parameter("bag", value=str(bag)), Parameter("rate", value=replay_rate(args)),
+                    Parameter("remap", value=[f"{a}:={b}" for a, b in config.bag_remap.items()] or [""]),
+                    Parameter("exclude", value=args.exclude or [""]),
+                    Parameter("progress", value=not args.quiet),
+                    Parameter("cache_dir", value=str(REPO_ROOT / "build" / "bag_cache")),
+                    Parameter("start_delay", value=2.0 if args.processes else 0.5),
+                    Parameter("min_subscribers", value=1 if record is not None else 0)])
+            except Exception as exc:  # no such bag, an empty bag, nothing to replay
+                raise ConfigError(f"replay: {one_line(exc)}") from exc
             nodes.append(player)
         if record is not None:
             recorder = BagRecorderNode(parameter_overrides=[
@@ -181,26 +223,32 @@ def run(args):
         executor = EventsExecutor()
         for node in nodes:
             executor.add_node(node)
-        started = time.monotonic()
+        started, finished_at = time.monotonic(), None
         print(f"agnav run: {config.path.name}: {len(config.nodes)} node(s)"
               f"{' as processes' if args.processes else ''}"
-              f"{f', replaying {bag}' if bag else ''}{f', recording {record}' if record else ''}", flush=True)
+              f"{f', replaying {bag}' if bag else ''}{' on sim time (/clock)' if use_sim_time and not bag else ''}"
+              f"{f', recording {record}' if record else ''}", flush=True)
         while rclpy.ok() and not stopping:
             executor.spin_once(timeout_sec=0.05)
-            error = children.failure() if children else None
-            if error:
+            failed = children.failure() if children else None
+            if failed:
+                error, status = failed
                 break
             if args.duration and time.monotonic() - started > args.duration:
                 break
-            if player is not None and player.finished and drained(recorder, quiet=2.0 if args.processes else 0.3):
-                break
+            if player is not None and player.finished:
+                finished_at = finished_at or time.monotonic()
+                if drained(recorder, finished_at, quiet=2.0 if args.processes else 0.3):
+                    break
             if player is None and (any(getattr(n, "finished", False) for n in nodes) or
                                    (children and children.finished())):
                 break  # a live source (the simulator) has ended its run
-    except KeyboardInterrupt:
+    except (KeyboardInterrupt, ExternalShutdownException):
         stopping.append("SIGINT")
-    except Exception as exc:  # a node raised: report and exit non-zero
-        error = f"{type(exc).__name__}: {exc}"
+    except ConfigError as exc:  # a node could not start: one line, status 2
+        error, status = str(exc), 2
+    except Exception as exc:  # a node raised while running: one line, status 1
+        error, status = f"{type(exc).__name__}: {one_line(exc)}", 1
     finally:
         if children:
             children.stop()
@@ -208,13 +256,15 @@ def run(args):
             node.destroy_node()
         rclpy.try_shutdown()
         shutil.rmtree(workdir, ignore_errors=True)
+        for sig in (signal.SIGINT, signal.SIGTERM):  # the evaluation below is interruptible again
+            signal.signal(sig, signal.SIG_DFL if sig == signal.SIGTERM else signal.default_int_handler)
     if error:
         print(f"agnav run: error: {error}", file=sys.stderr)
-        return 1
+        return status
     if recorder is not None:
         print(f"agnav run: recorded {sum(recorder.counts.values())} messages on {len(recorder.counts)} topics "
               f"to {record}")
-        if bag is not None and not args.no_eval and "/ground_truth/odometry" in recorder.counts \
+        if bag is not None and not args.no_eval and not stopping and "/ground_truth/odometry" in recorder.counts \
                 and "/odometry/filtered" in recorder.counts:
             from agnav_bringup.evaluate import main as evaluate
             return evaluate([str(record), "--truth", str(bag), "--plots", str(record / "plots")])

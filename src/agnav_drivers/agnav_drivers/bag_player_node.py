@@ -6,6 +6,7 @@ EventsExecutor's FIFO events, every earlier message has then been handled by eve
 that a lagging subscriber in another process cannot take yet is held and retried (see REPLAY_QOS), so a slow
 node slows the replay instead of losing data.
 Publishes /clock from the bag timeline (a recorded /clock is not replayed) and /tf_static transient-local.
+`progress` shows a tqdm bar on stderr when it is a terminal (nothing in files and CI logs).
 """
 import sys
 import time
@@ -14,6 +15,7 @@ from rclpy._rclpy_pybind11 import RCLError
 from rclpy.node import Node
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rosgraph_msgs.msg import Clock
+from tqdm import tqdm
 
 from agnav_common.diagnostics import OK, WARN, Diagnostics
 from agnav_common.node_main import main_for
@@ -72,6 +74,7 @@ class BagPlayerNode(Node):
         self._last_clock = -1
         self._pending = None
         self._last_progress = 0.0
+        self._bar = None
         # Start once every topic has min_subscribers matched (probe and recorder count) and start_delay
         # has passed, so that subscribers in other processes have discovered us; give up waiting after 10 s.
         self.min_subscribers = int(p["min_subscribers"]) + (1 if self.rate == 0.0 else 0)
@@ -153,20 +156,32 @@ class BagPlayerNode(Node):
 
     def _show_progress(self, final=False):
         now = time.monotonic()
-        if self.progress and self._t0 is not None and (final or now - self._last_progress > 0.25):
-            self._last_progress = now
-            span = max(self.source.end_ns - self.source.start_ns, 1)
-            frac = min(max((self._last_clock - self.source.start_ns) / span, 0.0), 1.0)
-            bar = "#" * int(frac * 40)
-            sys.stderr.write(f"\r[{bar:<40}] {frac * 100:5.1f} %  {self.published} msgs")
-            sys.stderr.flush()
+        if not self.progress or self._t0 is None or not (final or now - self._last_progress > 0.25):
+            return
+        self._last_progress = now
+        span = max(self.source.end_ns - self.source.start_ns, 1) * 1e-9
+        if self._bar is None:
+            self._bar = tqdm(total=round(span, 1), unit="s", desc="replay", disable=not sys.stderr.isatty(),
+                             bar_format="{desc} {percentage:5.1f}%|{bar}| {n:.1f}/{total:.1f} s bag [{elapsed}{postfix}]")
+        done = round(min(max((self._last_clock - self.source.start_ns) * 1e-9, 0.0), span), 1)
+        self._bar.set_postfix_str(f"{self.published} msgs", refresh=False)
+        self._bar.update(done - self._bar.n)
 
     def _finish(self):
         self.finished = True
-        if self.progress:
-            self._show_progress(final=True)
-            sys.stderr.write("\n")
+        self._show_progress(final=True)
+        self._close_bar()
         self.get_logger().info(f"replay finished: {self.published} messages")
+
+    def _close_bar(self):
+        if self._bar is not None:
+            self._bar.close()
+            self._bar = None
+
+    def destroy_node(self):
+        self._close_bar()
+        self.source.close()
+        return super().destroy_node()
 
 
 main = main_for(BagPlayerNode)

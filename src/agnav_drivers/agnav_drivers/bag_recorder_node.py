@@ -2,16 +2,19 @@
 
 Messages are stored raw with their message definitions (Foxglove and `ros2 bag` open the result),
 time-stamped with the node clock (bag time under use_sim_time). Topics appearing later are picked up.
+Every `flush_period` seconds (wall time) the messages so far go to disk as a complete mcap chunk: a recorder
+killed without closing (SIGKILL, power loss) leaves a folder that `agnav recover DIR` finishes.
 """
 import time
 from pathlib import Path
 
+from rcl_interfaces.msg import FloatingPointRange, ParameterDescriptor
 from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rosbags.rosbag2 import StoragePlugin, Writer
 
-from agnav_common.bagio import typestore
+from agnav_common.bagio import flush_recording, typestore
 from agnav_common.diagnostics import OK, Diagnostics
 from agnav_common.node_main import main_for
 from agnav_drivers.ros_types import message_class
@@ -27,6 +30,9 @@ class BagRecorderNode(Node):
             raise ValueError("parameter 'output' (rosbag2 folder to create) is required")
         self.topics = [t for t in self.declare_parameter("topics", [""]).value if t]
         self.exclude = set(self.declare_parameter("exclude", [""]).value) | set(ALWAYS_EXCLUDED)
+        flush_period = self.declare_parameter("flush_period", 1.0, ParameterDescriptor(
+            description="s of wall time between writes to disk", floating_point_range=[
+                FloatingPointRange(from_value=0.05, to_value=60.0)])).value
         self.store = typestore()
         self.writer = Writer(Path(out), version=9, storage_plugin=StoragePlugin.MCAP)
         self.writer.open()
@@ -36,7 +42,9 @@ class BagRecorderNode(Node):
         self.last_write = None  # monotonic time of the last message written (drain detection)
         self._early = []  # messages received before the (sim) clock started, written at its first tick
         self._discover()
-        self.create_timer(0.2, self._discover, clock=Clock(clock_type=ClockType.STEADY_TIME))  # not sim time
+        steady = Clock(clock_type=ClockType.STEADY_TIME)  # wall time: not stalled by a paused /clock
+        self.create_timer(0.2, self._discover, clock=steady)
+        self.create_timer(flush_period, self.flush, clock=steady)
         self.diagnostics = Diagnostics(self, "bag_recorder")
         self.diagnostics.add("recording", lambda: (OK, f"{sum(self.counts.values())} messages", dict(self.counts)))
 
@@ -81,6 +89,11 @@ class BagRecorderNode(Node):
         self.counts[topic] += 1
         if topic != "/diagnostics":
             self.last_write = time.monotonic()
+
+    def flush(self):
+        """Write what has been recorded so far to disk (a complete chunk)."""
+        if not self.closed:
+            flush_recording(self.writer)
 
     def close(self):
         """Finish the bag file (also done on node destruction)."""

@@ -8,7 +8,7 @@ from pathlib import Path
 from rosbags.convert import convert
 from rosbags.highlevel import AnyReader
 
-from agnav_common.bagio import typestore
+from agnav_common.bagio import typestore, unfinished
 
 
 @dataclass(frozen=True)
@@ -40,7 +40,11 @@ class BagSource:
     """Ordered messages of a bag, optionally filtered by topic and started at an offset (s)."""
 
     def __init__(self, path, topics=None, start_offset=0.0, cache_dir=None):
+        """ValueError (one line) for a bag without messages on the selected topics or a killed recording."""
         self.path = as_rosbag2(path, cache_dir)
+        if unfinished(self.path):
+            raise ValueError(f"{self.path} is an unfinished recording (its recorder was killed): "
+                             f"finish it with `agnav recover {self.path}`")
         self._reader = AnyReader([self.path], default_typestore=typestore())
         self._reader.open()
         wanted = set(topics) if topics else None
@@ -49,6 +53,11 @@ class BagSource:
         self.start_ns = self._reader.start_time + int(start_offset * 1e9)
         self.end_ns = self._reader.end_time
         self.message_count = sum(c.msgcount for c in self.connections)
+        if self.message_count == 0:
+            present = sorted({c.topic for c in self._reader.connections if c.msgcount})
+            self._reader.close()
+            raise ValueError(f"bag {self.path} holds no messages" + (f" on topics {sorted(wanted)}" if wanted else "")
+                             + (f" (it has: {', '.join(present)})" if present else ""))
 
     @property
     def topics(self):
