@@ -157,6 +157,27 @@ def test_ubx_node_publishes_raw_observations(ros, device):
     h.close()
 
 
+@pytest.mark.parametrize("node", ["nmea", "ubx"])
+def test_driver_shutdown_while_streaming_is_quiet(ros, device, node, monkeypatch):
+    """destroy_node (Ctrl-C / SIGTERM path of main_for) with bytes arriving: the reader thread ends, no traceback."""
+    from agnav_drivers.nmea_gnss_node import NmeaGnssNode
+    from agnav_drivers.ubx_gnss_node import UbxGnssNode
+    escaped = []
+    monkeypatch.setattr(threading, "excepthook", escaped.append)
+    node_class, capture = {"nmea": (NmeaGnssNode, CORPUS + "ublox-zed-f9p-nmea.log"),
+                           "ubx": (UbxGnssNode, UBX + "pygpsdata-SF-calibration.log")}[node]
+    for _ in range(3):
+        h = Harness(ros, node_class, device)
+        stop, thread = h.stream(open(capture, "rb").read(), baud=9600)
+        assert h.wait(lambda: h.driver.link.bytes_read > 200)
+        reader = h.driver._thread
+        h.close()
+        stop.set()
+        thread.join()
+        assert not reader.is_alive()
+    assert escaped == []
+
+
 def test_adc_node_calibrates_then_publishes_imu_inclinometer_mag(ros, device):
     from sensor_msgs.msg import Imu, MagneticField
     from std_srvs.srv import Trigger

@@ -102,3 +102,26 @@ def test_file_replay_paced_then_eof(tmp_path):
     link.read(0.05)
     assert link.state == EOF
     link.close()
+
+
+def test_close_from_another_thread_stops_a_blocked_reader_quietly(device):
+    """Node shutdown: the reader thread sits in a blocking read when the link is closed; nothing may escape."""
+    errors = []
+    for _ in range(4):
+        link = ByteLink(LinkSettings(port=device.path))
+        link.read(0.01)
+        assert link.state == OPEN
+
+        def reader():
+            try:
+                while link.state != "closed":
+                    link.read(0.3)
+            except Exception as exc:  # noqa: BLE001  (what the old close let escape: TypeError on fd None)
+                errors.append(exc)
+        thread = threading.Thread(target=reader)
+        thread.start()
+        time.sleep(0.1)  # the reader is inside the port's select now
+        link.close()
+        thread.join(2.0)
+        assert not thread.is_alive() and link.state == "closed"
+    assert errors == []

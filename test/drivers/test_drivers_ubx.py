@@ -1,4 +1,5 @@
-"""UBX core on real u-blox captures: NAV-PVAT/ATT at 1 Hz, RXM-RAWX, RTK mapping, bad frames."""
+"""UBX core on real u-blox captures: NAV-PVAT/ATT at 1 Hz, RXM-RAWX, RTK mapping, bad frames and values."""
+import glob
 
 import numpy as np
 import pytest
@@ -93,3 +94,68 @@ def test_sfrbx_decoded():
     msg = UBXMessage("RXM", "RXM-SFRBX", 0, gnssId=0, svId=5, numWords=3, dwrd_01=1, dwrd_02=2, dwrd_03=3)
     (frame,) = UbxParser().feed(msg.serialize(), 1.0)
     assert isinstance(frame, NavDataFrame) and frame.sv_id == 5 and frame.words == [1, 2, 3]
+
+
+# ---- corrupt headers: resynchronise at once, every frame keeps its own arrival time ---------------------------
+SF = open(UBX + "pygpsdata-SF-calibration.log", "rb").read()
+SF_RATE = len(SF) / 526.0  # bytes/s: the capture's 526 one-second epochs, as over the wire
+
+
+def feed_paced(data, chunk=64):
+    """Feeds `data` in chunks with the host time at which each chunk would arrive at SF_RATE."""
+    parser, events = UbxParser(), []
+    for i in range(0, len(data), chunk):
+        events += parser.feed(data[i:i + chunk], 1000.0 + (i + chunk) / SF_RATE)
+    return parser, events
+
+
+@pytest.mark.parametrize("header", [
+    b"\xb5\x62\x01\x07\x40\x1f",   # NAV-PVT claiming 8000 bytes (NAV-PVT is 92)
+    b"\xb5\x62\x01\x35\xb8\x0b",   # NAV-SAT (no length rule) claiming 3000 bytes: a valid frame inside gives it away
+    b"\xb5\x62\x77\x01\x10\x00",   # unknown class
+    b"\xb5\x62\x02\x15\x10\x04\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x05",  # RXM-RAWX 1040 B, 5 meas
+], ids=["nav_pvt_8000", "nav_sat_3000", "unknown_class", "rawx_count_mismatch"])
+def test_corrupt_header_does_not_stall_or_restamp_the_stream(header):
+    cut = SF.index(b"\xb5\x62", 20000)  # a frame boundary ~40 s into the drive
+    data = SF[:cut] + header + SF[cut:]
+    clean_parser, clean = feed_paced(SF[:cut + 20000])
+    parser, events = feed_paced(data[:cut + len(header) + 20000])
+    fixes, clean_fixes = of(events, g.GnssFix), of(clean, g.GnssFix)
+    assert len(fixes) == len(clean_fixes) > 60
+    late = max(f.host_time - c.host_time for f, c in zip(fixes, clean_fixes))
+    assert late < 0.5  # s: each fix is stamped when its own bytes arrived (was: 16 s late, all one stamp)
+    assert len({f.host_time for f in fixes}) == len(fixes)
+    assert parser.counters.corrupt_frames >= 1 and clean_parser.counters.corrupt_frames == 0
+
+
+def test_real_ubx_captures_pass_the_header_and_value_checks_untouched():
+    paths = sorted(glob.glob(UBX + "*.log") + glob.glob(GPSD + "ublox*.log"))
+    frames = 0
+    for path in paths:
+        parser, _ = run(path)
+        c = parser.counters
+        frames += c.frames
+        assert c.corrupt_frames == c.checksum_failures == c.implausible == c.floored_accuracy == 0, (path, c)
+    assert len(paths) > 15 and frames > 5000
+
+
+# ---- physical plausibility --------------------------------------------------------------------------------------
+@pytest.mark.parametrize("field,value", [("velN", 2_000_000_000), ("height", 30_000_000), ("lat", 91.0),
+                                         ("velD", -150_000)])
+def test_implausible_pvt_is_rejected_and_counted(field, value):
+    parser = UbxParser()
+    events = parser.feed(pvt(**{field: value}), 1.0)
+    assert not of(events, g.GnssFix) and not of(events, g.GnssVelocity)
+    assert parser.counters.implausible == 1 and parser.counters.rejected == 1
+    assert of(parser.feed(pvt(iTOW=2000, second=2), 2.0), g.GnssFix)  # the stream goes on
+
+
+def test_zero_accuracy_is_floored_never_a_known_zero():
+    parser = UbxParser()
+    events = parser.feed(pvt(hAcc=0, vAcc=0, sAcc=0), 1.0)
+    (fix,), (vel,) = of(events, g.GnssFix), of(events, g.GnssVelocity)
+    floor = parser._screen.limits
+    assert fix.covariance_type == g.COV_DIAGONAL_KNOWN
+    assert [fix.covariance[i] for i in (0, 4, 8)] == pytest.approx([floor.min_position_std ** 2] * 3)
+    assert [vel.covariance[i] for i in (0, 4, 8)] == pytest.approx([floor.min_velocity_std ** 2] * 3)
+    assert parser.counters.floored_accuracy == 1

@@ -15,7 +15,7 @@ from . import gnss_types as g
 
 NAVSAT_STATUS = {g.FIX_SINGLE: NavSatStatus.STATUS_FIX, g.FIX_DGPS: NavSatStatus.STATUS_SBAS_FIX,
                  g.FIX_RTK_FLOAT: NavSatStatus.STATUS_GBAS_FIX, g.FIX_RTK_FIXED: NavSatStatus.STATUS_GBAS_FIX}
-UNKNOWN = 99999.0  # variance of an axis the receiver does not give (INTERFACES)
+UNKNOWN = g.UNKNOWN_VARIANCE  # variance of an axis the receiver does not give (INTERFACES)
 
 
 class GnssPublishers:
@@ -50,11 +50,18 @@ class GnssPublishers:
     def _fix(self, e: g.GnssFix):
         msg = NavSatFix()
         self._header(msg, e)
-        msg.status.status = NAVSAT_STATUS[e.fix_type]
         msg.status.service = self.service
-        msg.latitude, msg.longitude, msg.altitude = e.latitude, e.longitude, e.altitude
-        msg.position_covariance = [float(v) for v in e.covariance]
-        msg.position_covariance_type = e.covariance_type
+        status = NAVSAT_STATUS.get(e.fix_type)
+        if status is None or not g.finite(e.latitude, e.longitude, e.altitude):
+            # no position solution: NavSatFix convention, never a real-looking position or a known covariance
+            msg.status.status = NavSatStatus.STATUS_NO_FIX
+            msg.latitude = msg.longitude = msg.altitude = math.nan
+            msg.position_covariance_type = NavSatFix.COVARIANCE_TYPE_UNKNOWN
+        else:
+            msg.status.status = status
+            msg.latitude, msg.longitude, msg.altitude = e.latitude, e.longitude, e.altitude
+            msg.position_covariance = [float(v) for v in e.covariance]
+            msg.position_covariance_type = e.covariance_type
         self.fix.publish(msg)
 
     def _vel(self, e: g.GnssVelocity):

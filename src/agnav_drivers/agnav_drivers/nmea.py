@@ -1,17 +1,26 @@
 """NMEA 0183 GNSS core: byte stream -> plain fix / velocity / status / heading / time events (no ROS).
 
-Sentences are parsed by pynmea2 (GGA, RMC, VTG, GST, GSA, HDT, THS, ZDA; any talker: GP GN GL GA GB ...).
+Sentences are parsed by pynmea2 (GGA, RMC, GLL, VTG, GST, GSA, HDT, THS, ZDA; any talker: GP GN GL GA GB ...).
 Policy (documented in config/nmea_gnss.yaml):
 * GGA emits a GnssFixStatus every time and a GnssFix when the quality carries a position.
-  Altitude = MSL altitude + geoid separation (ellipsoidal, as NavSatFix requires).
+  Altitude = MSL altitude + geoid separation (ellipsoidal, as NavSatFix requires); an empty separation
+  field is replaced by the EGM96 model (gnss_types.geoid_height, vertical variance + GEOID_MODEL_STD^2),
+  or, without a model, the altitude is marked unknown (vertical variance UNKNOWN_VARIANCE).
+  An empty quality field says nothing: no status, no fix (RMC/GLL may then give the fixes).
   Covariance: GST of the same or previous epoch (full ellipse if semi-major/minor/orientation are
   given, else lat/lon sigmas), otherwise HDOP x per-fix-type sigma table (vertical from VDOP of GSA
   or vertical_factor x horizontal), otherwise unknown.
+* RMC / GLL with status A (mode not E/M/S/N) emit a GnssFix (single) when the stream has no GGA: none
+  within gga_timeout receiver seconds, and not at the first such epoch (a GGA may still follow it).
+  They carry no accuracy and no altitude: covariance from GST, else sigma_no_accuracy per horizontal
+  axis (APPROXIMATED); altitude = mean sea level (the geoid, 0 without a model) with vertical variance
+  UNKNOWN_VARIANCE (consumers reject a NaN altitude).
 * VTG or RMC emit one GnssVelocity per epoch (ENU from true course and speed), only while a valid
   fix is recent (GGA with a position or RMC status A within fix_timeout host seconds).
 * HDT / THS emit a GnssAttitude (heading only); RMC / ZDA emit ReceiverTime (full UTC date+time).
+* Every event passes gnss_types.Screen (physical limits, accuracy floors).
 Bad input is counted, never raised: checksum failures, parse errors (truncated, binary, malformed
-fields), rejected values (NaN, out of range, time going backwards), noise (non-NMEA bytes/lines).
+fields), rejected values (NaN, out of range, implausible, time going backwards), noise (non-NMEA bytes/lines).
 """
 from __future__ import annotations
 
@@ -20,36 +29,21 @@ import math
 from dataclasses import dataclass, field
 
 import pynmea2
-from pynmea2.nmea_utils import dm_to_sd
 
 from .framing import LineSplitter
 from .gnss_types import (COV_APPROXIMATED, COV_DIAGONAL_KNOWN, COV_KNOWN, COV_UNKNOWN, FIX_DEAD_RECKONING,
-                         FIX_DGPS, FIX_NONE, FIX_RTK_FIXED, FIX_RTK_FLOAT, FIX_SINGLE, POSITION_FIX_TYPES,
-                         GnssAttitude, GnssFix, GnssFixStatus, GnssVelocity, ReceiverTime, diag3, finite)
+                         FIX_DGPS, FIX_NONE, FIX_RTK_FIXED, FIX_RTK_FLOAT, FIX_SINGLE, GEOID_MODEL_STD,
+                         POSITION_FIX_TYPES, UNKNOWN_VARIANCE, GnssAttitude, GnssFix, GnssFixStatus, GnssVelocity,
+                         Limits, ReceiverTime, Screen, diag3, geoid_height)
+from .nmea_fields import (DAY, KNOT, THS, Duplicate, Monotonic, Rejected, lat_lon, optional_float, seconds,
+                          tod_gap)
 
-KNOT = 1852.0 / 3600.0  # m/s
-DAY = 86400.0
+__all__ = ["KNOT", "THS", "NmeaParser", "NmeaSettings", "NmeaCounters"]
 
 # GGA quality indicator -> GnssStatus fix type (NMEA 0183 v4.11; 9 = SBAS on some receivers).
 GGA_QUALITY = {0: FIX_NONE, 1: FIX_SINGLE, 2: FIX_DGPS, 3: FIX_SINGLE, 4: FIX_RTK_FIXED, 5: FIX_RTK_FLOAT,
                6: FIX_DEAD_RECKONING, 7: FIX_NONE, 8: FIX_NONE, 9: FIX_DGPS}
-
-
-class THS(pynmea2.TalkerSentence):
-    """True heading and status (NMEA 0183 v4), registered with pynmea2 by its class name."""
-    fields = (("Heading", "heading", float), ("Mode indicator", "mode"))
-
-
-class Rejected(ValueError):
-    """A well-formed sentence with a value that must not be published; `events` still go out."""
-
-    def __init__(self, reason: str, events: list | None = None):
-        super().__init__(reason)
-        self.events = events or []
-
-
-class Duplicate(Exception):
-    """A second sentence for an epoch already handled (e.g. GPGGA and GLGGA of one epoch)."""
+NO_POSITION_MODES = ("E", "M", "S", "N")  # FAA mode: estimated (dead reckoning), manual, simulator, invalid
 
 
 @dataclass
@@ -59,12 +53,14 @@ class NmeaSettings:
         FIX_SINGLE: 4.0, FIX_DGPS: 1.0, FIX_RTK_FLOAT: 0.5, FIX_RTK_FIXED: 0.02})
     vertical_factor: float = 2.0     # sigma_up / sigma_horizontal when GSA gives no VDOP
     velocity_std: float = 0.1        # m/s per horizontal axis (NMEA carries no speed accuracy)
+    sigma_no_accuracy: float = 10.0  # m per horizontal axis of an RMC/GLL fix (no HDOP, no GST)
+    gga_timeout: float = 2.0         # receiver s without GGA after which RMC/GLL give the fixes
     require_checksum: bool = True    # a missing '*hh' is a truncated or corrupt sentence
     gst_max_age: float = 1.5         # s of receiver time between a GST and the GGA that uses it
     fix_timeout: float = 2.0         # s of host time a valid fix keeps enabling velocity output
-    max_speed: float = 515.0         # m/s (1000 kn): faster is absurd
     resync_after: int = 5            # consecutive backwards epochs that mean the receiver clock reset
     max_line: int = 256
+    limits: Limits = field(default_factory=Limits)  # physical plausibility (shared with the UBX driver)
 
 
 @dataclass
@@ -76,64 +72,13 @@ class NmeaCounters:
     parse_errors: int = 0
     rejected: int = 0
     time_backwards: int = 0          # part of `rejected`
+    implausible: int = 0             # values outside gnss_types.Limits (part of `rejected`)
+    floored_accuracy: int = 0        # sentences with an accuracy raised to the floor (published)
+    geoid_model: int = 0             # fixes whose geoid separation came from the model (or is unknown)
     noise_lines: int = 0
     noise_bytes: int = 0
     last_problem: str = ""
     by_type: dict = field(default_factory=dict)
-
-
-class Monotonic:
-    """Accepts strictly increasing times; equal -> Duplicate, earlier -> Rejected, except that
-    `resync` consecutive earlier times adopt the new timeline (receiver reset, spliced stream).
-    With `day_wrap`, times are times of day and a drop of more than half a day is midnight."""
-
-    def __init__(self, resync: int, day_wrap: bool = False):
-        self.resync, self.day_wrap = resync, day_wrap
-        self.last: float | None = None
-        self._backwards = 0
-
-    def check(self, t: float | None) -> None:
-        last = self.last
-        if t is None:
-            return
-        if last is not None and t == last:
-            raise Duplicate()
-        if last is not None and t < last and not (self.day_wrap and last - t > DAY / 2):
-            self._backwards += 1
-            if self._backwards < self.resync:
-                raise Rejected(f"time backwards {last} -> {t}")
-        self._backwards = 0
-        self.last = t
-
-
-def _seconds(t: dt.time | None) -> float | None:
-    if t is None:
-        return None
-    if not isinstance(t, dt.time):
-        raise ValueError(f"malformed time {t!r}")
-    return t.hour * 3600.0 + t.minute * 60.0 + t.second + t.microsecond * 1e-6
-
-
-def _degrees(value: str, hemisphere: str, limit: float, positive: str, negative: str) -> float:
-    whole, _, _ = value.partition(".")
-    if len(whole) < 3 or float(value[len(whole) - 2:]) >= 60.0:
-        raise Rejected(f"malformed coordinate {value!r}")
-    if hemisphere not in (positive, negative):
-        raise Rejected(f"bad hemisphere {hemisphere!r}")
-    deg = dm_to_sd(value) * (1.0 if hemisphere == positive else -1.0)
-    if not finite(deg) or abs(deg) > limit:
-        raise Rejected(f"coordinate out of range {deg}")
-    return deg
-
-
-def _optional_float(raw, low: float, high: float, name: str) -> float | None:
-    """Field (text or already converted by pynmea2) as float; None when empty."""
-    if raw is None or raw == "":
-        return None
-    value = float(raw)
-    if not finite(value) or not low <= value <= high:
-        raise Rejected(f"{name} out of range: {raw}")
-    return value
 
 
 class NmeaParser:
@@ -143,8 +88,9 @@ class NmeaParser:
         self.settings = settings or NmeaSettings()
         self.counters = NmeaCounters()
         self._lines = LineSplitter(self.settings.max_line)
-        self._handlers = {"GGA": self._gga, "RMC": self._rmc, "VTG": self._vtg, "GST": self._gst,
+        self._handlers = {"GGA": self._gga, "RMC": self._rmc, "GLL": self._gll, "VTG": self._vtg, "GST": self._gst,
                           "GSA": self._gsa, "HDT": self._hdt, "THS": self._ths, "ZDA": self._zda}
+        self._screen = Screen(self.settings.limits)
         self._date: dt.date | None = None
         self._epoch_tod: float | None = None     # time of day of the latest timed sentence
         self._fix_order = {True: Monotonic(self.settings.resync_after, day_wrap=True),
@@ -155,6 +101,9 @@ class NmeaParser:
         self._vdop: float | None = None
         self._fix_valid_until = -math.inf
         self._velocity_epoch: float | None = None
+        self._gga_seen = False
+        self._gga_tod: float | None = None       # time of day of the latest GGA with a quality field
+        self._first_fallback_tod: float | None = None  # first RMC/GLL epoch with a position
         self._prefix_noise = 0
 
     # ---- framing -------------------------------------------------------------------------------
@@ -213,6 +162,14 @@ class NmeaParser:
             c.parse_errors += 1
             c.last_problem = f"{msg.sentence_type}: {exc}"
             return []
+        events, problem = self._screen(events)
+        if problem is not None:
+            c.last_problem = f"{msg.sentence_type}: {problem}"
+            if not events:
+                c.rejected += 1
+                c.implausible += 1
+                return []
+            c.floored_accuracy += 1
         c.accepted += 1
         c.by_type[msg.sentence_type] = c.by_type.get(msg.sentence_type, 0) + 1
         return events
@@ -220,7 +177,7 @@ class NmeaParser:
     # ---- time ----------------------------------------------------------------------------------
     def _timed(self, t: dt.time | None) -> tuple[float | None, float | None]:
         """(time of day, Unix receiver time or None) of a sentence timestamp."""
-        tod = _seconds(t)
+        tod = seconds(t)
         if tod is None:
             return None, None
         self._epoch_tod = tod
@@ -249,16 +206,19 @@ class NmeaParser:
 
     # ---- sentences -----------------------------------------------------------------------------
     def _gga(self, msg, host_time: float) -> list:
-        quality = 0 if msg.gps_qual is None else msg.gps_qual  # empty field: no fix
+        if msg.gps_qual is None:
+            return []  # empty quality field: says nothing (some receivers leave it empty with a fix)
+        quality = msg.gps_qual
         if quality not in GGA_QUALITY:
             raise Rejected(f"unknown quality {quality!r}")
         fix_type = GGA_QUALITY[quality]
         tod, rt = self._timed(msg.timestamp)
+        self._gga_seen, self._gga_tod = True, self._epoch_tod
         sats = int(msg.num_sats) if msg.num_sats else 0
         if not 0 <= sats <= 255:
             raise Rejected(f"satellites {sats}")
-        hdop = _optional_float(msg.horizontal_dil, 0.0, 100.0, "hdop")
-        age = _optional_float(msg.age_gps_data, 0.0, 3600.0, "correction age")
+        hdop = optional_float(msg.horizontal_dil, 0.0, 100.0, "hdop")
+        age = optional_float(msg.age_gps_data, 0.0, 3600.0, "correction age")
         if fix_type not in POSITION_FIX_TYPES:
             self._fix_valid_until = -math.inf
         else:
@@ -268,17 +228,46 @@ class NmeaParser:
         if fix_type not in POSITION_FIX_TYPES:
             return [status]
         try:
-            lat = _degrees(msg.lat, msg.lat_dir, 90.0, "N", "S")
-            lon = _degrees(msg.lon, msg.lon_dir, 180.0, "E", "W")
-            alt_msl = _optional_float(msg.altitude, -1000.0, 1e5, "altitude")
+            lat, lon = lat_lon(msg)
+            alt_msl = optional_float(msg.altitude, -math.inf, math.inf, "altitude")
             if alt_msl is None:
                 raise Rejected("no altitude (2D fix)")
         except Rejected as exc:
             raise Rejected(str(exc), [status]) from None
-        separation = _optional_float(msg.geo_sep, -200.0, 200.0, "geoid separation") or 0.0
+        separation = optional_float(msg.geo_sep, -200.0, 200.0, "geoid separation")
         cov, cov_type = self._covariance(fix_type, hdop, tod)
+        if separation is None:  # MSL altitude without the separation: the geoid model, else unknown
+            self.counters.geoid_model += 1
+            separation = geoid_height(lat, lon)
+            extra = UNKNOWN_VARIANCE if separation is None else GEOID_MODEL_STD ** 2
+            cov = cov[:8] + (cov[8] + extra,) if cov_type != COV_UNKNOWN else cov
         self._fix_valid_until = host_time + self.settings.fix_timeout
-        return [status, GnssFix(host_time, rt, lat, lon, alt_msl + separation, fix_type, cov, cov_type)]
+        return [status, GnssFix(host_time, rt, lat, lon, alt_msl + (separation or 0.0), fix_type, cov, cov_type)]
+
+    def _fallback_fix(self, msg, tod: float | None, mode: str, host_time: float) -> list:
+        """RMC / GLL position (status A) when the stream gives no GGA; [] otherwise."""
+        if msg.status != "A" or mode in NO_POSITION_MODES or not (msg.lat and msg.lon) or tod is None:
+            return []
+        if self._gga_seen and (self._gga_tod is None or tod_gap(tod, self._gga_tod) <= self.settings.gga_timeout):
+            return []  # GGA is the fix source
+        if self._first_fallback_tod is None:
+            self._first_fallback_tod = tod  # a GGA of this epoch may still follow
+        if tod_gap(tod, self._first_fallback_tod) == 0.0:
+            return []
+        lat, lon = lat_lon(msg)
+        rt = self._receiver_time(tod)
+        try:
+            self._fix_order[rt is None].check(rt if rt is not None else tod)
+        except Duplicate:
+            return []  # RMC and GLL of one epoch
+        cov, cov_type = self._covariance(FIX_SINGLE, None, tod)
+        if cov_type == COV_UNKNOWN:
+            sigma = self.settings.sigma_no_accuracy
+            cov, cov_type = diag3(sigma ** 2, sigma ** 2, 0.0), COV_APPROXIMATED
+        sea_level = geoid_height(lat, lon)
+        self._fix_valid_until = max(self._fix_valid_until, host_time + self.settings.fix_timeout)
+        return [GnssFix(host_time, rt, lat, lon, sea_level or 0.0, FIX_SINGLE, cov[:8] + (UNKNOWN_VARIANCE,),
+                        cov_type)]
 
     def _covariance(self, fix_type: int, hdop: float | None, tod: float | None) -> tuple[tuple, int]:
         s = self.settings
@@ -298,11 +287,11 @@ class NmeaParser:
         tod, _ = self._timed(msg.timestamp)
         if tod is None:
             raise Rejected("GST without time")
-        sig = {name: _optional_float(getattr(msg, name), 0.0, 1e5, name) for name in (
+        sig = {name: optional_float(getattr(msg, name), 0.0, 1e5, name) for name in (
             "std_dev_major", "std_dev_minor", "std_dev_latitude", "std_dev_longitude",
             "std_dev_altitude")}
         major, minor = sig["std_dev_major"], sig["std_dev_minor"]
-        orient = _optional_float(msg.orientation, -360.0, 360.0, "orientation")
+        orient = optional_float(msg.orientation, -360.0, 360.0, "orientation")
         s_lat, s_lon, s_alt = sig["std_dev_latitude"], sig["std_dev_longitude"], sig["std_dev_altitude"]
         if major and minor is not None and orient is not None:
             th = math.radians(orient)  # semi-major axis azimuth, clockwise from north
@@ -322,8 +311,8 @@ class NmeaParser:
         return []
 
     def _gsa(self, msg, host_time: float) -> list:
-        self._vdop = _optional_float(msg.vdop, 0.0, 100.0, "vdop") or None
-        _optional_float(msg.pdop, 0.0, 100.0, "pdop")
+        self._vdop = optional_float(msg.vdop, 0.0, 100.0, "vdop") or None
+        optional_float(msg.pdop, 0.0, 100.0, "pdop")
         return []
 
     def _velocity(self, host_time: float, speed: float | None, course: float | None) -> list:
@@ -345,11 +334,11 @@ class NmeaParser:
                              diag3(var, var, 99999.0))]
 
     def _speed_course(self, knots, course, kmh=None):
-        top = self.settings.max_speed
-        speed_kn = _optional_float(knots, 0.0, top / KNOT, "speed")
+        top = self.settings.limits.max_speed
+        speed_kn = optional_float(knots, 0.0, top / KNOT, "speed")
         if speed_kn is None and kmh:
-            speed_kn = _optional_float(kmh, 0.0, top * 3.6, "speed") / 3.6 / KNOT
-        return (None if speed_kn is None else speed_kn * KNOT), _optional_float(course, 0.0, 360.0, "course")
+            speed_kn = optional_float(kmh, 0.0, top * 3.6, "speed") / 3.6 / KNOT
+        return (None if speed_kn is None else speed_kn * KNOT), optional_float(course, 0.0, 360.0, "course")
 
     def _rmc(self, msg, host_time: float) -> list:
         date = msg.datestamp
@@ -362,10 +351,18 @@ class NmeaParser:
             self._date = date
             events += self._time_reference(self._receiver_time(tod), host_time, msg.talker + "RMC")
         mode = getattr(msg, "mode_indicator", "") or ""
+        try:
+            events += self._fallback_fix(msg, tod, mode, host_time)
+        except Rejected as exc:
+            raise Rejected(str(exc), events) from None
         if msg.status == "A" and mode != "N":
             self._fix_valid_until = max(self._fix_valid_until, host_time + self.settings.fix_timeout)
             events += self._velocity(host_time, speed, course)
         return events
+
+    def _gll(self, msg, host_time: float) -> list:
+        tod, _ = self._timed(msg.timestamp)
+        return self._fallback_fix(msg, tod, getattr(msg, "faa_mode", "") or "", host_time)
 
     def _vtg(self, msg, host_time: float) -> list:
         if (msg.faa_mode or "") == "N":
@@ -374,7 +371,7 @@ class NmeaParser:
         return self._velocity(host_time, speed, course)
 
     def _heading(self, value, host_time: float) -> list:
-        heading = _optional_float(value, 0.0, 360.0, "heading")
+        heading = optional_float(value, 0.0, 360.0, "heading")
         if heading is None:
             return []
         return [GnssAttitude(host_time, self._receiver_time(self._epoch_tod), heading % 360.0)]

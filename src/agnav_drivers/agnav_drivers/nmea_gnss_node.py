@@ -23,6 +23,8 @@ class NmeaGnssNode(StreamDriverNode):
                             g.FIX_RTK_FIXED: p("sigma_rtk_fixed", table[g.FIX_RTK_FIXED]).value},
             vertical_factor=p("vertical_factor", defaults.vertical_factor).value,
             velocity_std=p("velocity_std", defaults.velocity_std).value,
+            sigma_no_accuracy=p("sigma_no_accuracy", defaults.sigma_no_accuracy).value,
+            gga_timeout=p("gga_timeout", defaults.gga_timeout).value,
             require_checksum=p("require_checksum", defaults.require_checksum).value,
             gst_max_age=p("gst_max_age", defaults.gst_max_age).value,
             fix_timeout=p("fix_timeout", defaults.fix_timeout).value,
@@ -39,7 +41,8 @@ class NmeaGnssNode(StreamDriverNode):
     def _check(self):
         c = self.parser.counters
         counters = {k: getattr(c, k) for k in ("lines", "accepted", "ignored", "checksum_failures", "parse_errors",
-                                               "rejected", "time_backwards", "noise_lines", "noise_bytes")}
+                                               "rejected", "time_backwards", "implausible", "floored_accuracy",
+                                               "geoid_model", "noise_lines", "noise_bytes")}
         problems = c.checksum_failures + c.parse_errors + c.rejected
         return self.stream_check(counters, dict(c.by_type), problems, {
             "fix_type": g.FIX_NAMES[self.gnss.last_fix_type], "last_problem": c.last_problem})

@@ -2,7 +2,8 @@
 
 `ByteLink.read(timeout)` never raises and never spins: while the device is absent it sleeps
 until the next open attempt (exponential back-off from backoff_initial to backoff_max), and
-`state` / `status()` say what is going on for diagnostics.
+`state` / `status()` say what is going on for diagnostics. `close()` may come from another thread while
+a read is under way: it wakes the read and closes the source only after that read has returned.
 """
 from __future__ import annotations
 
@@ -105,6 +106,7 @@ class ByteLink:
         self._backoff = settings.backoff_initial
         self._next_attempt = 0.0
         self._stop = threading.Event()
+        self._io = threading.RLock()     # held by a read (at most its timeout) and by close()
 
     def status(self) -> dict:
         return {"source": self.settings.describe, "state": self.state, "opens": self.opens,
@@ -113,21 +115,22 @@ class ByteLink:
 
     def read(self, timeout: float = 0.1) -> bytes:
         """Bytes that arrived within `timeout` s (possibly none); reopens the source when due."""
-        if self._stop.is_set():
-            return b""
-        if self._conn is None and not self._open():
-            return b""
-        try:
-            data = self._conn.read(timeout, self.settings.read_size)
-        except (OSError, serial.SerialException, ConnectionError) as exc:
-            self._drop(f"read failed: {exc}")
-            return b""
-        if data:
-            self.bytes_read += len(data)
-            self.last_data_time = time.monotonic()
-        elif isinstance(self._conn, _File) and self._conn.at_end:
-            self.state = EOF
-        return data
+        with self._io:
+            if self._stop.is_set():
+                return b""
+            if self._conn is None and not self._open():
+                return b""
+            try:
+                data = self._conn.read(timeout, self.settings.read_size)
+            except (OSError, serial.SerialException, ConnectionError) as exc:
+                self._drop(f"read failed: {exc}")
+                return b""
+            if data:
+                self.bytes_read += len(data)
+                self.last_data_time = time.monotonic()
+            elif isinstance(self._conn, _File) and self._conn.at_end:
+                self.state = EOF
+            return data
 
     def _open(self) -> bool:
         wait = self._next_attempt - time.monotonic()
@@ -174,7 +177,8 @@ class ByteLink:
             self._conn = None
 
     def close(self):
-        """Stops the link for good (wakes a sleeping read)."""
+        """Stops the link for good: wakes a sleeping read, waits for a read under way, closes the source."""
         self._stop.set()
-        self._close_conn()
-        self.state = CLOSED
+        with self._io:
+            self._close_conn()
+            self.state = CLOSED

@@ -91,16 +91,19 @@ class StreamDriverNode(Node):
     def _reader(self):
         while self._running:
             data = self.link.read(0.1)
-            if data:
-                host_time = self.get_clock().now().nanoseconds * 1e-9
-                try:
-                    self.handle_bytes(data, host_time)
-                except Exception as exc:  # a driver bug must show up on /diagnostics, not kill the thread
-                    self.get_logger().error(f"driver error: {exc!r}", throttle_duration_sec=5.0)
+            if not data or not self._running:
+                continue
+            try:
+                self.handle_bytes(data, self.get_clock().now().nanoseconds * 1e-9)
+            except Exception as exc:  # a driver bug must show up on /diagnostics, not kill the thread
+                if not (self._running and self.context.ok()):
+                    return  # shutting down (context gone under us): stop quietly
+                self.get_logger().error(f"driver error: {exc!r}", throttle_duration_sec=5.0)
 
     def destroy_node(self):
+        """Stops the reader (it ends within one read timeout) before the port and the node go away."""
         self._running = False
-        self.link.close()
+        self.link.close()  # wakes the reader; closes the port once its read under way has returned
         if self._thread.is_alive():
-            self._thread.join(timeout=2.0)
+            self._thread.join(timeout=5.0)
         return super().destroy_node()

@@ -9,10 +9,18 @@ observation events (no ROS).
   RXM-SFRBX -> NavDataFrame (broadcast navigation data words).
 Frames are found by sync chars and length; pyubx2 checks the checksum and decodes. Bad frames and
 values are counted, never raised.
+* A header is checked before its payload is awaited: the class must be a UBX class pyubx2 knows, a handled
+  message must have its documented length (fixed, or base + items x count as soon as the count byte is in),
+  any other message at most MAX_PAYLOAD bytes. A corrupt header is counted (`corrupt_frames`) and the
+  search for the next sync starts right after it: one bad length never stalls the stream.
+* Each frame carries the host time at which its last byte arrived, not that of the read that completed it.
+* Every event passes gnss_types.Screen (physical limits, accuracy floors): implausible messages are dropped
+  and counted (`implausible`), floored accuracies counted (`floored_accuracy`).
 """
 from __future__ import annotations
 
 import datetime as dt
+from collections import deque
 from dataclasses import dataclass, field
 
 import pyubx2
@@ -20,10 +28,23 @@ import pyubx2
 from .framing import skip_to_sync
 from .gnss_types import (COV_DIAGONAL_KNOWN, FIX_DEAD_RECKONING, FIX_DGPS, FIX_NONE, FIX_RTK_FIXED,
                          FIX_RTK_FLOAT, FIX_SINGLE, POSITION_FIX_TYPES, GnssAttitude, GnssFix, GnssFixStatus,
-                         GnssVelocity, ReceiverTime, diag3, finite)
+                         GnssVelocity, Limits, ReceiverTime, Screen, diag3, finite)
 
 SYNC = b"\xb5\x62"
-MAX_PAYLOAD = 8192
+MAX_PAYLOAD = 4096  # bytes of a message without a length rule (real ones: NAV-SAT, RXM-MEASX <= ~1.5 kB)
+UBX_CLASSES = {c[0] for c in pyubx2.UBX_CLASSES if c[0] < 0xF0}  # 0xF0.. are NMEA/RTCM ids in CFG-MSG only
+# Payload length of the handled messages (u-blox interface descriptions): fixed, or (base, bytes per item,
+# offset of the count byte in the payload, right shift of that byte, optional extra bytes).
+PAYLOAD_RULES = {
+    b"\x01\x07": 92,                       # NAV-PVT
+    b"\x01\x17": 116,                      # NAV-PVAT
+    b"\x01\x05": 32,                       # NAV-ATT
+    b"\x01\x04": 18,                       # NAV-DOP
+    b"\x10\x10": (16, 4, 15, 0, (0,)),      # ESF-STATUS: numSens
+    b"\x10\x02": (8, 4, 5, 3, (0, 4)),      # ESF-MEAS: numMeas = flags bits 11-15, optional calibTtag
+    b"\x02\x15": (16, 32, 11, 0, (0,)),     # RXM-RAWX: numMeas
+    b"\x02\x13": (8, 4, 4, 0, (0,)),        # RXM-SFRBX: numWords
+}
 # NAV-PVT lastCorrectionAge code -> upper bound of the age range (s); 0 = not available.
 CORRECTION_AGE = {1: 1, 2: 2, 3: 5, 4: 10, 5: 15, 6: 20, 7: 30, 8: 45, 9: 60, 10: 90, 11: 120, 12: 120}
 # ESF-MEAS data types (u-blox interface description): name, scale of the signed 24-bit field.
@@ -96,6 +117,9 @@ class UbxCounters:
     checksum_failures: int = 0
     parse_errors: int = 0
     rejected: int = 0
+    corrupt_frames: int = 0          # headers with an unknown class or an impossible length
+    implausible: int = 0             # messages with values outside gnss_types.Limits (part of `rejected`)
+    floored_accuracy: int = 0        # messages with an accuracy raised to the floor (published)
     noise_bytes: int = 0
     last_problem: str = ""
     by_type: dict = field(default_factory=dict)
@@ -105,12 +129,37 @@ def _signed24(value: int) -> int:
     return value - (1 << 24) if value & 0x800000 else value
 
 
+def header_problem(head: bytes) -> str | None:
+    """Why the start of a frame (sync, class, id, length, payload so far) cannot be a real frame, or None."""
+    if len(head) < 6:
+        return None
+    cls_id, length = bytes(head[2:4]), int.from_bytes(head[4:6], "little")
+    if head[2] not in UBX_CLASSES:
+        return f"unknown class 0x{head[2]:02x}"
+    rule = PAYLOAD_RULES.get(cls_id)
+    if rule is None:
+        return f"length {length}" if length > MAX_PAYLOAD else None
+    if isinstance(rule, int):
+        return None if length == rule else f"length {length} of {pyubx2.UBX_MSGIDS[cls_id]}"
+    base, per_item, offset, shift, extras = rule
+    if len(head) <= 6 + offset:
+        return None if length >= base else f"length {length} of {pyubx2.UBX_MSGIDS[cls_id]}"
+    items = head[6 + offset] >> shift
+    if any(length == base + per_item * items + extra for extra in extras):
+        return None
+    return f"length {length} of {pyubx2.UBX_MSGIDS[cls_id]} with {items} items"
+
+
 class UbxParser:
     """Incremental UBX decoder: feed(bytes, host_time) -> list of events."""
 
-    def __init__(self):
+    def __init__(self, limits: Limits | None = None):
         self.counters = UbxCounters()
         self._buf = bytearray()
+        self._start = 0                  # stream offset of _buf[0]
+        self._arrivals = deque()         # (stream offset after a read's last byte, host time of that read)
+        self._scan = 0                   # where _frame_inside resumes in _buf
+        self._screen = Screen(limits)
         self._hdop: float | None = None
         self._attitude_tow: float | None = None
         self._handlers = {"NAV-PVT": self._pvt, "NAV-PVAT": self._pvt, "NAV-ATT": self._att,
@@ -120,30 +169,68 @@ class UbxParser:
     def feed(self, data: bytes, host_time: float) -> list:
         buf, c, events = self._buf, self.counters, []
         buf += data
+        self._arrivals.append((self._start + len(buf), host_time))
         while True:
             found, dropped = skip_to_sync(buf, SYNC)
             c.noise_bytes += dropped
-            if not found:
+            self._consumed(dropped)
+            if not found or len(buf) < 6:
                 return events
-            if len(buf) < 6:
-                return events
-            length = int.from_bytes(buf[4:6], "little")
-            if length > MAX_PAYLOAD:
-                c.parse_errors += 1
-                c.last_problem = f"length {length}"
-                del buf[:2]
+            problem = header_problem(buf[:6 + 16])
+            if problem is not None:
+                c.corrupt_frames += 1
+                c.last_problem = problem
+                self._drop(2)  # hunt for the next sync right after this one
                 continue
+            length = int.from_bytes(buf[4:6], "little")
             if len(buf) < 8 + length:
-                return events
+                if not self._frame_inside(length):
+                    return events
+                c.corrupt_frames += 1  # a whole valid frame lies inside the awaited payload
+                c.last_problem = f"length {length}: next frame inside"
+                self._drop(2)
+                continue
             frame = bytes(buf[:8 + length])
             if not pyubx2.isvalid_checksum(frame):
                 c.checksum_failures += 1
                 c.last_problem = "checksum"
-                del buf[:2]  # the sync may have been inside noise: hunt again just after it
+                self._drop(2)  # the sync may have been inside noise: hunt again just after it
                 continue
-            del buf[:8 + length]
+            arrival = self._arrival(8 + length)
+            self._drop(8 + length)
             c.frames += 1
-            events += self._frame(frame, host_time)
+            events += self._frame(frame, arrival)
+
+    def _frame_inside(self, length: int) -> bool:
+        """True when a complete frame with a valid checksum starts inside the awaited frame: its header
+        (length) was corrupt. Scans each buffered byte once."""
+        buf, i = self._buf, max(self._scan, 2)
+        while (i := buf.find(SYNC, i)) >= 0 and len(buf) - i >= 6:
+            if header_problem(buf[i:i + 22]) is None:
+                end = i + 8 + int.from_bytes(buf[i + 4:i + 6], "little")
+                if end > len(buf):
+                    break  # decide once it is complete
+                if end <= 8 + length and pyubx2.isvalid_checksum(bytes(buf[i:end])):
+                    return True
+            i += 1
+        self._scan = len(buf) - 1 if i < 0 else i
+        return False
+
+    def _arrival(self, size: int) -> float:
+        """Host time of the read that brought the byte `size` - 1 of the buffer."""
+        last = self._start + size
+        return next(t for end, t in self._arrivals if end >= last)
+
+    def _drop(self, n: int):
+        del self._buf[:n]
+        self._consumed(n)
+
+    def _consumed(self, n: int):
+        if n:
+            self._start += n
+            self._scan = 0
+        while self._arrivals and self._arrivals[0][0] <= self._start and len(self._arrivals) > 1:
+            self._arrivals.popleft()
 
     def _frame(self, frame: bytes, host_time: float) -> list:
         c = self.counters
@@ -168,6 +255,15 @@ class UbxParser:
             c.parse_errors += 1
             c.last_problem = f"{msg.identity}: {exc}"
             return []
+        events, problem = self._screen(events)
+        if problem is not None and not events:
+            c.rejected += 1
+            c.implausible += 1
+            c.last_problem = f"{msg.identity}: {problem}"
+            return []
+        if problem is not None:
+            c.floored_accuracy += 1
+            c.last_problem = f"{msg.identity}: {problem}"
         c.accepted += 1
         c.by_type[msg.identity] = c.by_type.get(msg.identity, 0) + 1
         return events
@@ -206,8 +302,6 @@ class UbxParser:
         if fix_type in POSITION_FIX_TYPES and not getattr(msg, "invalidLlh", 0):
             lat, lon, h = msg.lat, msg.lon, msg.height * 1e-3
             h_acc, v_acc = msg.hAcc * 1e-3, msg.vAcc * 1e-3
-            if not (finite(lat, lon, h) and abs(lat) <= 90 and abs(lon) <= 180 and -1000 < h < 1e5):
-                raise ValueError(f"position out of range {lat} {lon} {h}")
             events.append(GnssFix(host_time, rt, lat, lon, h, fix_type,
                                   diag3(h_acc ** 2, h_acc ** 2, v_acc ** 2), COV_DIAGONAL_KNOWN))
             s_acc = msg.sAcc * 1e-3

@@ -38,15 +38,16 @@ class UbxGnssNode(StreamDriverNode):
 
     def _check(self):
         c = self.parser.counters
-        counters = {k: getattr(c, k) for k in ("frames", "accepted", "ignored", "checksum_failures",
-                                               "parse_errors", "rejected", "noise_bytes")}
+        counters = {k: getattr(c, k) for k in ("frames", "accepted", "ignored", "checksum_failures", "corrupt_frames",
+                                               "parse_errors", "rejected", "implausible", "floored_accuracy",
+                                               "noise_bytes")}
         detail = {"fix_type": g.FIX_NAMES[self.gnss.last_fix_type], "last_problem": c.last_problem,
                   "esf_measurements": self.esf_measurements}
         if self.esf_status is not None:
             detail["esf_fusion_mode"] = ESF_FUSION.get(self.esf_status.fusion_mode, self.esf_status.fusion_mode)
             detail["esf_sensors_used"] = f"{self.esf_status.sensors_used}/{self.esf_status.sensors}"
-        return self.stream_check(counters, dict(c.by_type), c.checksum_failures + c.parse_errors + c.rejected,
-                                 detail)
+        problems = c.checksum_failures + c.corrupt_frames + c.parse_errors + c.rejected
+        return self.stream_check(counters, dict(c.by_type), problems, detail)
 
 
 main = main_for(UbxGnssNode)
