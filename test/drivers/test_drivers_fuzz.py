@@ -1,11 +1,14 @@
-"""Hypothesis fuzzing of every driver parser: random bytes and mutated real input never raise, and
-nothing non-finite comes out."""
+"""Hypothesis fuzzing of every driver parser: random bytes, mutated real input, corrupt UBX lengths and
+impossible values never raise, and nothing non-finite or physically implausible comes out."""
 import dataclasses
 import math
 
 import numpy as np
 from hypothesis import HealthCheck, given, settings, strategies as st
 
+from pyubx2 import UBXMessage
+
+from agnav_drivers import gnss_types as g
 from agnav_drivers.adc import AdcConverter, AdcDecoder, encode_frame
 from agnav_drivers.nmea import NmeaParser
 from agnav_drivers.ubx import UbxParser
@@ -16,7 +19,9 @@ FUZZ = settings(max_examples=150, deadline=None, derandomize=True,
 REAL = [b for name, kind in [("ublox-zed-f9p-nmea.log", k) for k in ("GGA", "RMC", "VTG", "GSA")]
         + [("skytraq-dgps.log", "GST"), ("hemi.log", "ZDA"), ("rst39.log", "HDT")]
         for b in real_sentences(name, kind)[:3]]
-UBX_REAL = open("/work/shared/data/real/ubx/pygpsdata-SF-calibration.log", "rb").read()[:3000]
+UBX_CAPTURE = open("/work/shared/data/real/ubx/pygpsdata-SF-calibration.log", "rb").read()
+UBX_REAL = UBX_CAPTURE[:3000]
+LIMITS = g.Limits()
 ADC_REAL = b"".join(encode_frame(i, 1000 * i, [30000 + i] * 8) for i in range(10))
 
 
@@ -26,6 +31,21 @@ def finite_everywhere(events):
             for x in np.ravel(np.asarray(v, dtype=object)):
                 if isinstance(x, float):
                     assert math.isfinite(x), e
+    within_limits(events)
+
+
+def within_limits(events):
+    """Every published fix and velocity is physically possible and never claims a zero variance."""
+    for e in events:
+        if isinstance(e, g.GnssFix):
+            assert e.fix_type in g.POSITION_FIX_TYPES
+            assert abs(e.latitude) <= 90 and abs(e.longitude) <= 180, e
+            assert LIMITS.min_altitude <= e.altitude <= LIMITS.max_altitude, e
+            if e.covariance_type != g.COV_UNKNOWN:
+                assert min(e.covariance[0], e.covariance[4], e.covariance[8]) >= LIMITS.min_position_std ** 2 * 0.999
+        elif isinstance(e, g.GnssVelocity):
+            assert math.hypot(e.east, e.north, e.up) <= LIMITS.max_speed, e
+            assert min(e.covariance[0], e.covariance[4], e.covariance[8]) >= LIMITS.min_velocity_std ** 2 * 0.999
 
 
 def mutate(data: bytes, ops) -> bytes:
@@ -82,6 +102,70 @@ def test_ubx_mutated_real_capture(ops, chunk):
     p = UbxParser()
     for i in range(0, len(data), chunk):
         finite_everywhere(p.feed(data[i:i + chunk], 1.0))
+
+
+UBX_PACED = UBX_CAPTURE[:12000]
+UBX_RATE = len(UBX_CAPTURE) / 526.0  # bytes/s of the capture's 526 one-second epochs
+
+
+def paced(data):
+    parser, events = UbxParser(), []
+    for i in range(0, len(data), 64):
+        events += parser.feed(data[i:i + 64], 1000.0 + (i + 64) / UBX_RATE)
+    return parser, [e for e in events if isinstance(e, g.GnssFix)]
+
+
+CLEAN_FIXES = paced(UBX_PACED)[1]
+FRAME_STARTS = [i for i in range(len(UBX_PACED) - 6) if UBX_PACED[i:i + 2] == b"\xb5\x62"]
+
+
+@FUZZ
+@given(st.integers(0, len(FRAME_STARTS) - 1), st.integers(0, 0xFFFF))
+def test_ubx_corrupt_length_costs_one_frame_and_no_time(index, length):
+    """Any length in any header of a real capture: at most the fix of that frame is lost, the others arrive
+    with the stamps of a clean stream (no stall, no burst of stale fixes)."""
+    start = FRAME_STARTS[index]
+    data = UBX_PACED[:start + 4] + length.to_bytes(2, "little") + UBX_PACED[start + 6:]
+    parser, fixes = paced(data)
+    finite_everywhere(fixes)
+    clean = {f.receiver_time: f.host_time for f in CLEAN_FIXES}
+    assert len(fixes) >= len(CLEAN_FIXES) - 1
+    assert all(abs(f.host_time - clean[f.receiver_time]) < 0.2 for f in fixes)
+
+
+I4 = st.integers(-2 ** 31, 2 ** 31 - 1)
+U4 = st.integers(0, 2 ** 32 - 1)
+
+
+@FUZZ
+@given(st.floats(-214.0, 214.0), st.floats(-214.0, 214.0), I4, U4, U4, I4, I4, I4, U4, st.integers(0, 5),
+       st.integers(0, 2))
+def test_ubx_impossible_values_never_published(lat, lon, height, h_acc, v_acc, vel_n, vel_e, vel_d, s_acc,
+                                               fix_type, carr):
+    msg = UBXMessage("NAV", "NAV-PVT", 0, iTOW=1000, year=2024, month=5, day=1, hour=12, second=1, validDate=1,
+                     validTime=1, fullyResolved=1, fixType=fix_type, gnssFixOk=1, carrSoln=carr, numSV=12,
+                     lat=lat, lon=lon, height=height, hAcc=h_acc, vAcc=v_acc, velN=vel_n, velE=vel_e, velD=vel_d,
+                     sAcc=s_acc)
+    parser = UbxParser()
+    finite_everywhere(parser.feed(msg.serialize(), 1.0))
+    assert parser.counters.accepted + parser.counters.rejected == 1
+
+
+NUMBER = st.one_of(st.floats(-1e6, 1e6).map(lambda v: f"{v:.3f}"), st.floats(-300, 300).map(lambda v: f"{v:.2f}"),
+                   st.sampled_from(["0", "0.0", "-0", "", "nan", "inf", "1e308", "99999999", "25000.0", "-1500.0",
+                                    "250.0"]))
+
+
+@FUZZ
+@given(NUMBER, NUMBER, NUMBER, NUMBER, NUMBER)
+def test_nmea_impossible_values_never_published(altitude, separation, hdop, speed, course):
+    gga = real_sentences("ublox-zed-f9p-nmea.log", "GGA")[0].split(",")
+    gga[8], gga[9], gga[11] = hdop, altitude, separation
+    rmc = real_sentences("ublox-zed-f9p-nmea.log", "RMC")[1].split(",")
+    rmc[7], rmc[8] = speed, course
+    vtg = f"GPVTG,{course},T,,M,{speed},N,,K,A"
+    p = NmeaParser()
+    finite_everywhere(p.feed(with_checksum(",".join(gga)) + with_checksum(",".join(rmc)) + with_checksum(vtg), 2.0))
 
 
 @FUZZ

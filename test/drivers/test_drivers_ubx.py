@@ -154,7 +154,7 @@ def test_zero_accuracy_is_floored_never_a_known_zero():
     parser = UbxParser()
     events = parser.feed(pvt(hAcc=0, vAcc=0, sAcc=0), 1.0)
     (fix,), (vel,) = of(events, g.GnssFix), of(events, g.GnssVelocity)
-    floor = parser._screen.limits
+    floor = g.Limits()
     assert fix.covariance_type == g.COV_DIAGONAL_KNOWN
     assert [fix.covariance[i] for i in (0, 4, 8)] == pytest.approx([floor.min_position_std ** 2] * 3)
     assert [vel.covariance[i] for i in (0, 4, 8)] == pytest.approx([floor.min_velocity_std ** 2] * 3)

@@ -170,7 +170,7 @@ class Screen:
     def _velocity(self, e: GnssVelocity):
         if not finite(e.east, e.north, e.up):
             return None, "non-finite velocity"
-        speed = math.sqrt(e.east ** 2 + e.north ** 2 + e.up ** 2)
+        speed = math.hypot(e.east, e.north, e.up)
         if speed > self.limits.max_speed:
             return None, f"speed {speed:.1f} m/s"
         cov, problem = self._covariance(e.covariance, self.limits.min_velocity_std)

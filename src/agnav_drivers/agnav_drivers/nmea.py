@@ -6,7 +6,6 @@ Policy (documented in config/nmea_gnss.yaml):
   Altitude = MSL altitude + geoid separation (ellipsoidal, as NavSatFix requires); an empty separation
   field is replaced by the EGM96 model (gnss_types.geoid_height, vertical variance + GEOID_MODEL_STD^2),
   or, without a model, the altitude is marked unknown (vertical variance UNKNOWN_VARIANCE).
-  An empty quality field says nothing: no status, no fix (RMC/GLL may then give the fixes).
   Covariance: GST of the same or previous epoch (full ellipse if semi-major/minor/orientation are
   given, else lat/lon sigmas), otherwise HDOP x per-fix-type sigma table (vertical from VDOP of GSA
   or vertical_factor x horizontal), otherwise unknown.
@@ -102,7 +101,7 @@ class NmeaParser:
         self._fix_valid_until = -math.inf
         self._velocity_epoch: float | None = None
         self._gga_seen = False
-        self._gga_tod: float | None = None       # time of day of the latest GGA with a quality field
+        self._gga_tod: float | None = None       # time of day of the latest GGA
         self._first_fallback_tod: float | None = None  # first RMC/GLL epoch with a position
         self._prefix_noise = 0
 
@@ -206,9 +205,7 @@ class NmeaParser:
 
     # ---- sentences -----------------------------------------------------------------------------
     def _gga(self, msg, host_time: float) -> list:
-        if msg.gps_qual is None:
-            return []  # empty quality field: says nothing (some receivers leave it empty with a fix)
-        quality = msg.gps_qual
+        quality = 0 if msg.gps_qual is None else msg.gps_qual  # empty field: no fix (myguide-3100 capture)
         if quality not in GGA_QUALITY:
             raise Rejected(f"unknown quality {quality!r}")
         fix_type = GGA_QUALITY[quality]
@@ -334,10 +331,10 @@ class NmeaParser:
                              diag3(var, var, 99999.0))]
 
     def _speed_course(self, knots, course, kmh=None):
-        top = self.settings.limits.max_speed
-        speed_kn = optional_float(knots, 0.0, top / KNOT, "speed")
+        """Speed (m/s) and course (deg) fields; a speed beyond the limits is left to Screen (implausible)."""
+        speed_kn = optional_float(knots, 0.0, math.inf, "speed")
         if speed_kn is None and kmh:
-            speed_kn = optional_float(kmh, 0.0, top * 3.6, "speed") / 3.6 / KNOT
+            speed_kn = optional_float(kmh, 0.0, math.inf, "speed") / 3.6 / KNOT
         return (None if speed_kn is None else speed_kn * KNOT), optional_float(course, 0.0, 360.0, "course")
 
     def _rmc(self, msg, host_time: float) -> list:
