@@ -178,6 +178,29 @@ def test_driver_shutdown_while_streaming_is_quiet(ros, device, node, monkeypatch
     assert escaped == []
 
 
+def test_bad_gnss_input_is_counted_on_the_node_diagnostics(ros):
+    from pyubx2 import UBXMessage
+
+    from agnav_drivers.nmea_gnss_node import NmeaGnssNode
+    from agnav_drivers.ubx_gnss_node import UbxGnssNode
+    from drivers_helpers import real_sentences, with_checksum
+    ubx = UbxGnssNode()
+    pvt = dict(iTOW=1000, year=2024, month=5, day=1, hour=12, second=1, validDate=1, validTime=1, fullyResolved=1,
+               fixType=3, gnssFixOk=1, numSV=20, lat=52.0, lon=13.0, height=100000, hAcc=20, vAcc=30, sAcc=50)
+    ubx.handle_bytes(b"\xb5\x62\x01\x07\x40\x1f" + UBXMessage("NAV", "NAV-PVT", 0, velN=2_000_000_000, **pvt)
+                     .serialize(), 1.0)
+    _, _, values = ubx._check()
+    assert values["corrupt_frames"] == 1 and values["implausible"] == 1 and ubx.published == 0
+    nmea = NmeaGnssNode()
+    gga = real_sentences("ublox-zed-f9p-nmea.log", "GGA")[0].split(",")
+    gga[9] = "25000.0"
+    nmea.handle_bytes(with_checksum(",".join(gga)), 1.0)
+    _, _, values = nmea._check()
+    assert values["implausible"] == 1 and nmea.published == 0
+    ubx.destroy_node()
+    nmea.destroy_node()
+
+
 def test_adc_node_calibrates_then_publishes_imu_inclinometer_mag(ros, device):
     from sensor_msgs.msg import Imu, MagneticField
     from std_srvs.srv import Trigger

@@ -3,7 +3,7 @@ import glob
 
 import numpy as np
 import pytest
-from pyubx2 import UBXMessage
+from pyubx2 import UBXMessage, calc_checksum
 
 from agnav_drivers import gnss_types as g
 from agnav_drivers.ubx import GnssObservations, NavDataFrame, UbxParser
@@ -159,3 +159,13 @@ def test_zero_accuracy_is_floored_never_a_known_zero():
     assert [fix.covariance[i] for i in (0, 4, 8)] == pytest.approx([floor.min_position_std ** 2] * 3)
     assert [vel.covariance[i] for i in (0, 4, 8)] == pytest.approx([floor.min_velocity_std ** 2] * 3)
     assert parser.counters.floored_accuracy == 1
+
+
+def test_protocol_14_nav_pvt_of_84_bytes_is_not_a_corrupt_header():
+    """u-blox 7 (protocol 14) sends NAV-PVT with an 84-byte payload: a legitimate length."""
+    payload = pvt()[6:6 + 84]
+    head = b"\x01\x07" + (84).to_bytes(2, "little")
+    short = b"\xb5\x62" + head + payload + calc_checksum(head + payload)
+    parser = UbxParser()
+    (fix,) = of(parser.feed(short, 1.0), g.GnssFix)
+    assert fix.latitude == pytest.approx(52.0) and parser.counters.corrupt_frames == 0

@@ -33,13 +33,13 @@ from .gnss_types import (COV_DIAGONAL_KNOWN, FIX_DEAD_RECKONING, FIX_DGPS, FIX_N
 SYNC = b"\xb5\x62"
 MAX_PAYLOAD = 4096  # bytes of a message without a length rule (real ones: NAV-SAT, RXM-MEASX <= ~1.5 kB)
 UBX_CLASSES = {c[0] for c in pyubx2.UBX_CLASSES if c[0] < 0xF0}  # 0xF0.. are NMEA/RTCM ids in CFG-MSG only
-# Payload length of the handled messages (u-blox interface descriptions): fixed, or (base, bytes per item,
-# offset of the count byte in the payload, right shift of that byte, optional extra bytes).
+# Payload length of the handled messages (u-blox interface descriptions): the set of fixed lengths, or
+# (base, bytes per item, offset of the count byte in the payload, right shift of that byte, optional extra bytes).
 PAYLOAD_RULES = {
-    b"\x01\x07": 92,                       # NAV-PVT
-    b"\x01\x17": 116,                      # NAV-PVAT
-    b"\x01\x05": 32,                       # NAV-ATT
-    b"\x01\x04": 18,                       # NAV-DOP
+    b"\x01\x07": frozenset({84, 92}),      # NAV-PVT (84 before protocol 15, u-blox 7)
+    b"\x01\x17": frozenset({116}),         # NAV-PVAT
+    b"\x01\x05": frozenset({32}),          # NAV-ATT
+    b"\x01\x04": frozenset({18}),          # NAV-DOP
     b"\x10\x10": (16, 4, 15, 0, (0,)),      # ESF-STATUS: numSens
     b"\x10\x02": (8, 4, 5, 3, (0, 4)),      # ESF-MEAS: numMeas = flags bits 11-15, optional calibTtag
     b"\x02\x15": (16, 32, 11, 0, (0,)),     # RXM-RAWX: numMeas
@@ -139,8 +139,8 @@ def header_problem(head: bytes) -> str | None:
     rule = PAYLOAD_RULES.get(cls_id)
     if rule is None:
         return f"length {length}" if length > MAX_PAYLOAD else None
-    if isinstance(rule, int):
-        return None if length == rule else f"length {length} of {pyubx2.UBX_MSGIDS[cls_id]}"
+    if isinstance(rule, frozenset):
+        return None if length in rule else f"length {length} of {pyubx2.UBX_MSGIDS[cls_id]}"
     base, per_item, offset, shift, extras = rule
     if len(head) <= 6 + offset:
         return None if length >= base else f"length {length} of {pyubx2.UBX_MSGIDS[cls_id]}"
