@@ -10,6 +10,7 @@ import struct
 import subprocess
 import termios
 import time
+from pathlib import Path
 
 import pytest
 import rclpy
@@ -98,20 +99,45 @@ def test_replay_ends_when_nothing_is_recorded(tmp_path):
     assert "recorded 0 messages" in result.stdout
 
 
+# (signal, SIGINT ignored when started, as in a background job of a script: Python then has no KeyboardInterrupt
+# and rclpy's own handler used to shut the context down under the executor)
+SIGNALS = [(signal.SIGINT, False), (signal.SIGINT, True), (signal.SIGTERM, False)]
+
+
+def start(cmd, sigint_ignored):
+    if sigint_ignored:
+        cmd = ["sh", "-c", "trap '' INT; exec \"$0\" \"$@\"", *cmd]
+    return subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=ENV)
+
+
 @pytest.mark.parametrize("mode", MODES)
 def test_signals_stop_cleanly_with_status_0(tmp_path, mode):
     cfg = graph(tmp_path, [recorder(tmp_path)])
-    for sig in (signal.SIGINT, signal.SIGTERM):
+    for sig, ignored in SIGNALS:
         shutil.rmtree(tmp_path / "rec", ignore_errors=True)
-        proc = subprocess.Popen([AGNAV, "run", str(cfg), "--live", "--record", str(tmp_path / "out"), *mode],
-                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=ENV)
+        proc = start([AGNAV, "run", str(cfg), "--live", "--record", str(tmp_path / "out"), *mode], ignored)
         assert "agnav run:" in proc.stdout.readline()  # the graph is up
         time.sleep(2.0)
         proc.send_signal(sig)
         _, err = proc.communicate(timeout=30)
-        assert proc.returncode == 0 and "Traceback" not in err and "Exception" not in err, (sig, err)
+        assert proc.returncode == 0 and "Traceback" not in err and "Exception" not in err, (sig, ignored, err)
         for rec in ("rec", "out"):  # both recorders closed their bags
             assert (tmp_path / rec / "metadata.yaml").exists(), (sig, rec)
+
+
+def test_node_console_script_stops_cleanly_on_signals(tmp_path):
+    """Every node is also a console script (agnav_common.node_main): Ctrl-C/SIGTERM end it with status 0."""
+    for sig, ignored in SIGNALS:
+        out = tmp_path / f"{sig.name}_{ignored}"
+        proc = start([str(Path(AGNAV).with_name("bag_recorder")), "--ros-args", "-p", f"output:={out}"], ignored)
+        deadline = time.monotonic() + 30.0
+        while not out.exists() and time.monotonic() < deadline:  # the node is constructed
+            time.sleep(0.1)
+        time.sleep(1.0)
+        proc.send_signal(sig)
+        _, err = proc.communicate(timeout=30)
+        assert proc.returncode == 0 and "Traceback" not in err and "Exception" not in err, (sig, ignored, err)
+        assert (out / "metadata.yaml").exists()
 
 
 @pytest.mark.parametrize("how", ["flag", "config"])

@@ -54,7 +54,7 @@ def parse_args(argv):
                          "--processes)")
     ap.add_argument("--exclude", action="append", default=[], metavar="TOPIC",
                     help="bag topic not to replay (e.g. outputs of an earlier run that the graph publishes again)")
-    ap.add_argument("--record", metavar="OUT", help="record to this rosbag2 folder (replaced if it exists)")
+    ap.add_argument("--record", metavar="OUT", help="record to this rosbag2 folder (an earlier finished recording there is replaced)")
     ap.add_argument("--processes", action="store_true", help="one OS process per node")
     ap.add_argument("--duration", type=float, default=0.0, help="stop after this many seconds (0: bag end / SIGINT)")
     ap.add_argument("--no-eval", action="store_true", help="skip the accuracy evaluation after a recorded replay")

@@ -149,8 +149,10 @@ def recover_bag(path):
     shutil.rmtree(tmp, ignore_errors=True)
     try:
         with files[0].open("rb") as f, Writer(tmp / path.name, version=9, storage_plugin=StoragePlugin.MCAP) as w:
-            if f.read(8) != MCAP_MAGIC:
-                raise ValueError(f"{files[0]} is not an mcap file")
+            magic = f.read(8)
+            if magic != MCAP_MAGIC:
+                raise ValueError(f"{files[0]} is empty: the run was killed before its first write to disk"
+                                 if not magic else f"{files[0]} is not an mcap file")
             count = _copy_records(f, w)
         done = tmp / path.name
         os.replace(done / f"{path.name}.mcap", path / f"{path.name}.mcap")  # replaces the unfinished file
