@@ -64,11 +64,12 @@ class DisturbanceSettings:
 
     intensity_tolerance: float = 0.10            # relative |F| error
     inclination_tolerance: float = math.radians(5.0)
-    deweight_factor: float = 25.0                # GDS variance multiplier while disturbed
 
 
-def disturbance(total_t: float, incl_rad: float, expected: ExpectedField, s: DisturbanceSettings):
-    """(disturbed, relative intensity error, inclination error rad) of a levelled field sample."""
+def disturbance(total_t: float, incl_rad: float | None, expected: ExpectedField, s: DisturbanceSettings):
+    """(disturbed, relative intensity error, inclination error rad) of a levelled field sample; incl_rad None
+    (attitude unknown: |F| alone, rotation invariant) gives a NaN inclination error that flags nothing."""
     d_f = total_t / expected.total - 1.0
-    d_i = incl_rad - expected.inclination
-    return (abs(d_f) > s.intensity_tolerance or abs(d_i) > s.inclination_tolerance), d_f, d_i
+    d_i = math.nan if incl_rad is None else incl_rad - expected.inclination
+    bad = not math.isfinite(d_f) or abs(d_f) > s.intensity_tolerance or abs(d_i) > s.inclination_tolerance
+    return bad, d_f, d_i

@@ -3,6 +3,10 @@
 ROS-free; thesis conventions: heading clockwise from true north, yaw rate clockwise +, rad and s.
 Inputs arrive as gyro samples (on_gyro), GDS headings at their epochs (on_gds) and GNSS positions (on_fix);
 each returns the newest (stamp, heading, variance) to publish, or None.
+A GDS sample flagged disturbed (heading_gate) is not fused: from the last clean output the heading follows the
+gyro alone (with the estimated drift) and its variance grows (heading_gate.propagation_variance) until clean GDS
+samples are fused again. The variance of a GDS-based heading includes `gds_systematic_sigma`, the GDS error no
+averaging removes (WMM declination, calibration residual, local anomalies).
 """
 import bisect
 import math
@@ -13,6 +17,7 @@ from agnav_common.frames import wrap_angle
 from agnav_fusion.gds_drift_lsm import DelayedVwaSettings, DriftLsmSettings, GdsGyroSystem, Unwrapper
 from agnav_fusion.gds_gyro_kf import GdsGyroKalmanFilter, KfSettings
 from agnav_fusion.gnss_heading_lsm import GnssGyroHeading
+from agnav_fusion.heading_gate import GyroErrorSettings, propagation_variance
 from agnav_fusion.variance_weighted_average import VariableTargetVwa, VwaSettings
 
 ESTIMATORS = ("gds_kf", "vwa", "gds_gyro_lsm", "gnss_gyro_lsm")
@@ -29,35 +34,49 @@ class EstimatorSettings:
     gds_delay_s: float = 0.0          # latency of the GDS heading (ALE tilt: its delay)
     imu_rate_hz: float = 50.0
     nominal_speed: float = 0.5        # KF Δd when no GNSS speed is known (SPEC §3.4)
+    gds_systematic_sigma: float = math.radians(0.4)   # absolute GDS heading error (WMM D ≈ 0.3–0.4° r.m.s.) [IMPL]
+    gyro: GyroErrorSettings = field(default_factory=GyroErrorSettings)   # gyro-only propagation while disturbed
 
 
 class GyroHistory:
-    """Integrated gyro heading over time for look-ups at GDS and GNSS epochs."""
+    """Integrated gyro heading over time for look-ups at GDS and GNSS epochs: raw (h) and with the drift estimate
+    of each step added to the rate (hc, the gyro-only heading)."""
 
     def __init__(self, horizon_s: float = 30.0):
         self.t: deque = deque()
         self.h: deque = deque()
+        self.hc: deque = deque()
         self._horizon = horizon_s
+        self._rate = (0.0, 0.0)
 
-    def add(self, t: float, rate: float):
+    def add(self, t: float, rate: float, drift: float = 0.0):
         if self.t:
-            self.h.append(self.h[-1] + rate * (t - self.t[-1]))
+            dt = t - self.t[-1]
+            self.h.append(self.h[-1] + rate * dt)
+            self.hc.append(self.hc[-1] + (rate + drift) * dt)
         else:
             self.h.append(0.0)
+            self.hc.append(0.0)
+        self._rate = (rate, rate + drift)
         self.t.append(t)
         while self.t[0] < t - self._horizon:
             self.t.popleft()
             self.h.popleft()
+            self.hc.popleft()
 
-    def at(self, t: float) -> float | None:
-        """Linear interpolation of the integrated heading at t (None outside the history)."""
-        if not self.t or t < self.t[0] or t > self.t[-1]:
+    def at(self, t: float, extrapolate: bool = False, corrected: bool = False) -> float | None:
+        """Linear interpolation of the integrated heading at t (None outside the history; with extrapolate, a t
+        after the newest sample continues at the newest rate); corrected: the drift-corrected one."""
+        h = self.hc if corrected else self.h
+        if not self.t or t < self.t[0]:
             return None
+        if t > self.t[-1]:
+            return h[-1] + self._rate[corrected] * (t - self.t[-1]) if extrapolate else None
         i = bisect.bisect_left(self.t, t)
         if self.t[i] == t:
-            return self.h[i]
+            return h[i]
         f = (t - self.t[i - 1]) / (self.t[i] - self.t[i - 1])
-        return self.h[i - 1] + f * (self.h[i] - self.h[i - 1])
+        return h[i - 1] + f * (h[i] - h[i - 1])
 
 
 class HeadingEstimator:
@@ -77,6 +96,7 @@ class HeadingEstimator:
         self._fix = None          # (t, x, y, position variance) of the last GNSS fix
         self._prev_gds = None     # (t, heading, gyro heading) of the previous GDS epoch (KF predictor form)
         self._unwrap = Unwrapper()
+        self._lsm = None
         if s.estimator == "gds_gyro_lsm":
             dt = 1.0 / s.imu_rate_hz
             delay = int(round(s.gds_delay_s * s.imu_rate_hz))
@@ -84,10 +104,15 @@ class HeadingEstimator:
                 DriftLsmSettings(window=max(1, int(round(s.lsm_window_s * s.imu_rate_hz))), delay=delay, dt=dt),
                 DelayedVwaSettings(window=s.lsm_vwa.window, interval=s.lsm_vwa.interval, delay=delay, dt=dt))
         self.drift = 0.0
+        self.disturbed = False    # the GDS is flagged: the heading follows the gyro alone
+        self._clean = None        # (t, heading, variance, gyro-only heading) of the last output on clean GDS
+        self._clean_gds = None    # (GDS heading, gyro-only heading) of the last clean GDS sample
+        self._settle = None       # (until, variance): after a disturbance, the window-statistics estimators'
+        # variance is not below the gyro-only one until their window holds clean samples again
 
-    def on_gyro(self, t: float, rate: float, dt: float, gds_variance_scale: float = 1.0):
+    def on_gyro(self, t: float, rate: float, dt: float):
         """Yaw rate (clockwise rad/s) at t; returns (t, heading, variance) for the per-sample estimators."""
-        self.gyro.add(t, rate)
+        self.gyro.add(t, rate, self.drift)
         self._rate = rate
         if self._gnss is not None:
             heading = self._gnss.on_gyro(rate, dt)
@@ -97,26 +122,72 @@ class HeadingEstimator:
             var = self._gnss.kise.variance(self._fix[3]) if self._fix else math.inf
             return t, heading, max(var, MIN_VARIANCE)
         if self.s.estimator == "gds_gyro_lsm" and self._last_gds is not None:
-            heading, var, self.drift = self._lsm.update(rate, self._last_gds, gds_variance_scale)
-            return t, heading, max(var, MIN_VARIANCE) if math.isfinite(var) else math.radians(2.0) ** 2
+            heading, var, drift = self._lsm.update(rate, self._last_gds)
+            if self.disturbed:      # the LSM runs on the gyro-propagated GDS; the output is the gyro's
+                return self._hold(t)
+            self.drift = drift
+            return self._clean_output(t, heading, var if math.isfinite(var) else math.radians(2.0) ** 2)
         return None
 
-    def on_gds(self, t: float, heading: float, gds_variance_scale: float = 1.0):
-        """True GDS heading at epoch t; returns (t, heading, variance) for the GDS-epoch estimators."""
+    def on_gds(self, t: float, heading: float, disturbed: bool = False):
+        """True GDS heading at epoch t; returns (t, heading, variance) for the GDS-epoch estimators.
+
+        disturbed: the sample is flagged (heading_gate) and is not fused."""
+        gyro, corrected = self.gyro.at(t), self.gyro.at(t, corrected=True)
+        if disturbed:
+            self.disturbed = True
+            if self._clean_gds is not None and gyro is not None:   # LSM input: the last clean GDS + gyro turn
+                self._last_gds = wrap_angle(self._clean_gds[0] + corrected - self._clean_gds[1])
+            return self._hold(t) if self._lsm is None and gyro is not None else None
+        if self.disturbed:
+            self._recover(t)
         self._last_gds = heading
-        gyro = self.gyro.at(t)
-        if gyro is None or (self._kf is None and self._vwa is None):
+        if gyro is None:
+            return None
+        self._clean_gds = (heading, corrected)
+        if self._kf is None and self._vwa is None:
             return None
         if self._vwa is not None:
-            out = self._vwa.update(t, self._unwrap(heading), gyro, gds_variance_scale)
-            return None if out is None else (t, wrap_angle(out[1]), max(out[2], MIN_VARIANCE))
+            out = self._vwa.update(t, self._unwrap(heading), gyro)
+            return None if out is None else self._clean_output(t, wrap_angle(out[1]), out[2])
         prev, self._prev_gds = self._prev_gds, (t, heading, gyro)
         if prev is None:
             return None
         dt = t - prev[0]
         # predictor form (2.16): y(k−1) and the gyro turn over (t_{k−1}, t_k] give x̂(k) at t_k
-        self._kf.update(prev[1], prev[2], (gyro - prev[2]) / dt, self.speed * dt, dt, gds_variance_scale)
-        return t, self._kf.heading, max(self._kf.heading_variance, MIN_VARIANCE)
+        self._kf.update(prev[1], prev[2], (gyro - prev[2]) / dt, self.speed * dt, dt)
+        return self._clean_output(t, self._kf.heading, self._kf.heading_variance)
+
+    def _clean_output(self, t, heading, variance):
+        """Output of the estimator on clean GDS: its variance plus the GDS systematic error; kept for _hold."""
+        var = max(variance, MIN_VARIANCE) + self.s.gds_systematic_sigma ** 2
+        if self._settle is not None:
+            if t < self._settle[0]:
+                var = max(var, self._settle[1])
+            else:
+                self._settle = None
+        gyro = self.gyro.at(t, corrected=True)
+        if gyro is not None:
+            self._clean = (t, heading, var, gyro)
+        return t, heading, var
+
+    def _hold(self, t):
+        """Gyro-only heading from the last clean output, variance grown by the gyro errors since."""
+        gyro = self.gyro.at(t, corrected=True)
+        if self._clean is None or gyro is None:
+            return None
+        t0, h0, v0, g0 = self._clean
+        return t, wrap_angle(h0 + gyro - g0), v0 + propagation_variance(self.s.gyro, t - t0)
+
+    def _recover(self, t):
+        """First clean GDS after a disturbance: the KF's drift state μ has not been observed since its last GDS."""
+        self.disturbed = False
+        if self._kf is not None and self._kf.x is not None and self._prev_gds is not None:
+            self._kf.p[2, 2] += propagation_variance(self.s.gyro, t - self._prev_gds[0])
+        vwa = self.s.vwa if self._vwa else (self.s.lsm_vwa if self._lsm else None)
+        window = 0.0 if vwa is None else vwa.window + vwa.interval    # statistics of clean samples only
+        hold = self._hold(t)
+        self._settle = (t + window, hold[2]) if hold is not None and window > 0 else None
 
     def on_fix(self, t: float, x: float, y: float, position_variance: float, speed: float | None = None):
         """GNSS position (map ENU m) at epoch t; feeds the GNSS–gyro LSM and the KF speed."""

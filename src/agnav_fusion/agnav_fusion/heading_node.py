@@ -9,10 +9,15 @@ Publishes
   ENU yaw = π/2 − φ_true (SPEC §2.3) with the estimator's yaw variance in orientation_covariance[8]
   (roll/pitch variances from the tilt source, 99999 when unknown); angular_velocity = base_link gyro rates with
   the estimated yaw drift removed (covariance unknown: [0] = -1); linear_acceleration_covariance[0] = -1.
-  Stamp = the heading's epoch. /diagnostics: rejected inputs, stale streams, declination source, disturbance.
+  Stamp = the heading's epoch. /diagnostics: inputs rejected and GDS samples flagged in the last
+  `diagnostics.window` s (agnav_common.input_guard.EventWindow), stale streams, declination source, disturbance.
 Parameter `estimator`: gds_kf (§3.5) | vwa (§3.6) | gds_gyro_lsm (§4.5–4.7) | gnss_gyro_lsm (§5.1–5.2).
-Magnetic disturbance: a levelled field whose intensity or inclination is off the WMM value is flagged (WARN)
-and the GDS variance is multiplied by disturbance.deweight_factor while it lasts.
+Magnetic disturbance (heading_gate), decided when a GDS sample arrives (with the newest tilt, so that the flag
+does not wait for the ALE-delayed tilt): its intensity or inclination is off the WMM value, or its heading
+disagrees with the integrated gyro (innovation test). A flagged sample is not fused; the heading follows the gyro
+alone with a growing variance (gyro.*) and /diagnostics is WARN until the gate reopens.
+Input stamps: one agnav_common.input_guard.StreamClock per stream (a lone future stamp is rejected, never
+moves the stream's time).
 """
 import math
 from collections import deque
@@ -21,9 +26,10 @@ import numpy as np
 from agnav_common.diagnostics import ERROR, OK, WARN, Diagnostics
 from agnav_common.frames import euler_from_quaternion, quaternion_from_euler, yaw_from_heading
 from agnav_common.geodesy import LocalTangentPlane
+from agnav_common.input_guard import EventWindow, StreamClock, StreamClockSettings, finite
 from agnav_common.node_main import main_for
 from agnav_common.qos import PUBLISHER_QOS, SENSOR_QOS
-from agnav_common.stamps import StampGuard, to_sec, to_stamp
+from agnav_common.stamps import to_sec, to_stamp
 from agnav_common.tf import TfBuffer
 from agnav_msgs.msg import Inclination
 from rclpy.node import Node
@@ -34,6 +40,7 @@ from agnav_fusion.adaptive_line_enhancer import AdaptiveLineEnhancer, AleSetting
 from agnav_fusion.gds_heading import CircleCalibration, inclination, magnetic_heading, tilt_compensate
 from agnav_fusion.geomagnetic_model import DisturbanceSettings, MagneticModel, disturbance
 from agnav_fusion.heading_estimators import EstimatorSettings, HeadingEstimator
+from agnav_fusion.heading_gate import GateSettings, GyroErrorSettings, MagneticGate
 from agnav_fusion.gds_gyro_kf import KfSettings
 from agnav_fusion.variance_weighted_average import VwaSettings
 
@@ -62,8 +69,18 @@ class HeadingNode(Node):
         fallback = p("wmm_fallback_year", 0.0)
         self.wmm = MagneticModel(fallback_year=fallback or None)
         self.dist = DisturbanceSettings(p("disturbance.intensity_tolerance", 0.10),
-                                        math.radians(p("disturbance.inclination_tolerance_deg", 5.0)),
-                                        p("disturbance.deweight_factor", 25.0))
+                                        math.radians(p("disturbance.inclination_tolerance_deg", 5.0)))
+        p("disturbance.deweight_factor", 25.0)   # obsolete (a disturbed GDS is not fused): accepted, ignored
+        deg = math.radians
+        gyro = GyroErrorSettings(deg(p("gyro.bias_sigma_deg_s", 0.05)), deg(p("gyro.arw_deg_sqrt_s", 0.05)),
+                                 deg(p("gyro.bias_walk_deg_s_sqrt_s", 0.001)))
+        gate = GateSettings()
+        self.gate = MagneticGate(GateSettings(
+            k_sigma=p("disturbance.innovation_k_sigma", gate.k_sigma),
+            reference_window=p("disturbance.reference_window", gate.reference_window),
+            recover_time=p("disturbance.recover_time", gate.recover_time),
+            offset_sigma_floor=deg(p("disturbance.offset_sigma_floor_deg", math.degrees(gate.offset_sigma_floor))),
+            gyro=gyro))
         kf, vwa = KfSettings(), VwaSettings()
         self.settings = EstimatorSettings(
             estimator=p("estimator", "gds_kf"),
@@ -72,18 +89,19 @@ class HeadingNode(Node):
             lsm_window_s=p("lsm.window", 3.5),
             lsm_vwa=VwaSettings(p("lsm.vwa_window", 15.0), p("lsm.vwa_interval", 5.0)),
             gds_delay_s=self.tilt_delay, imu_rate_hz=p("imu_rate", 50.0),
-            nominal_speed=p("nominal_speed", 0.5))
+            nominal_speed=p("nominal_speed", 0.5),
+            gds_systematic_sigma=deg(p("gds.systematic_sigma_deg", 0.4)), gyro=gyro)
         self.estimator = HeadingEstimator(self.settings)
         self.stale_timeout = p("stale_timeout", 1.0)
 
-        self.stamp_guards = {k: StampGuard() for k in ("gyro", "mag", "tilt", "fix")}
-        self.rejected = {"stamp": 0, "non-finite": 0, "no-tf": 0, "no-tilt": 0, "no-declination": 0}
+        clock = StreamClockSettings(max_jump=p("stamp_max_jump", 5.0))
+        self.clocks = {k: StreamClock(clock) for k in ("gyro", "mag", "tilt", "fix")}
+        self.events = EventWindow(p("diagnostics.window", 10.0))   # rejections and flagged GDS samples
         self.last_seen = {}
         self.tilt = deque(maxlen=500)            # (epoch, roll_thesis, pitch_thesis, var_roll, var_pitch)
         self.pending_mag = deque(maxlen=200)     # (t, b_thesis) waiting for tilt at their epoch
         self.fix = None                          # (lat, lon, alt)
         self.plane = None
-        self.disturbed = False
         self.field_error = (0.0, 0.0)
         self.published = 0
         self.last_heading = None
@@ -103,13 +121,22 @@ class HeadingNode(Node):
         self.diagnostics.add("heading", self._diagnose)
 
     # ---- input helpers ------------------------------------------------------------------------------------
+    @property
+    def now(self):
+        """Stream time: the newest accepted input stamp (the time base of the event window)."""
+        return max(self.last_seen.values(), default=0.0)
+
+    def _reject(self, reason):
+        self.events.add(reason, self.now)
+
     def _accept(self, stream, stamp, values):
         t = to_sec(stamp)
-        if not all(math.isfinite(v) for v in values):
-            self.rejected["non-finite"] += 1
+        if not finite(values):
+            self._reject("non_finite")
             return None
-        if self.stamp_guards[stream].check(t) is not None:
-            self.rejected["stamp"] += 1
+        reason = self.clocks[stream].check(t)
+        if reason is not None:
+            self._reject(reason)
             return None
         self.last_seen[stream] = t
         return t
@@ -117,7 +144,7 @@ class HeadingNode(Node):
     def _to_base(self, frame_id, vec):
         tf = self.tf.lookup(self.base_frame, frame_id or self.base_frame)
         if tf is None:
-            self.rejected["no-tf"] += 1
+            self._reject("no_tf")
             return None
         return Rotation.from_quat(tf[1]).apply(vec)
 
@@ -132,7 +159,7 @@ class HeadingNode(Node):
             return
         dt = t - self._gyro_t if self._gyro_t is not None and t - self._gyro_t < MAX_GYRO_GAP else 0.0
         self._gyro_t, self._rates = t, rates
-        out = self.estimator.on_gyro(t, -rates[2], dt, self._scale())
+        out = self.estimator.on_gyro(t, -rates[2], dt)
         if out is not None and dt > 0.0:
             self._publish(*out)
 
@@ -167,10 +194,32 @@ class HeadingNode(Node):
         if b is None:
             return
         b_thesis = self.cal.apply(np.array([-b[1], b[0], b[2]]))
+        expected = self._expected_field(t)
+        if expected is None:
+            self._reject("no_declination")
+            return
+        disturbed = self._check_gds(t, b_thesis, expected)
         if self.tilt_source == "none" or (self.tilt and self.tilt[-1][0] >= t):
-            self._process_mag(t, b_thesis)
+            self._process_mag(t, b_thesis, expected, disturbed)
         else:
-            self.pending_mag.append((t, b_thesis))
+            self.pending_mag.append((t, b_thesis, expected, disturbed))
+
+    def _check_gds(self, t, b_thesis, expected):
+        """Disturbance flag of a GDS sample on arrival, with the newest tilt (field check, innovation test)."""
+        tilt = (0.0, 0.0) if self.tilt_source == "none" else (self.tilt[-1][1:3] if self.tilt else None)
+        level = None if tilt is None else tilt_compensate(b_thesis, *tilt)
+        field_bad, *self.field_error = disturbance(float(np.linalg.norm(b_thesis)),
+                                                   None if level is None else float(inclination(level)),
+                                                   expected, self.dist)
+        gyro = self.estimator.gyro.at(t, extrapolate=True, corrected=True)
+        if level is None or gyro is None:    # no heading to test yet: the field check alone
+            disturbed = field_bad
+        else:
+            heading = float(magnetic_heading(level)) + expected.declination
+            disturbed = self.gate.update(t, heading, gyro, field_bad)
+        if disturbed:
+            self.events.add("disturbed_gds", self.now)
+        return disturbed
 
     def _tilt_at(self, t):
         if self.tilt_source == "none":
@@ -180,20 +229,13 @@ class HeadingNode(Node):
         ts = np.array([s[0] for s in self.tilt])
         return (float(np.interp(t, ts, [s[1] for s in self.tilt])), float(np.interp(t, ts, [s[2] for s in self.tilt])))
 
-    def _process_mag(self, t, b_thesis):
+    def _process_mag(self, t, b_thesis, expected, disturbed):
         tilt = self._tilt_at(t)
         if tilt is None:
-            self.rejected["no-tilt"] += 1
+            self._reject("no_tilt")
             return
-        expected = self._expected_field(t)
-        if expected is None:
-            self.rejected["no-declination"] += 1
-            return
-        level = tilt_compensate(b_thesis, *tilt)
-        self.disturbed, *self.field_error = disturbance(float(np.linalg.norm(level)), float(inclination(level)),
-                                                        expected, self.dist)
-        heading = float(magnetic_heading(level)) + expected.declination
-        out = self.estimator.on_gds(t, heading, self._scale())
+        heading = float(magnetic_heading(tilt_compensate(b_thesis, *tilt))) + expected.declination
+        out = self.estimator.on_gds(t, heading, disturbed)
         if out is not None:
             self._publish(*out)
 
@@ -213,13 +255,10 @@ class HeadingNode(Node):
         var = 0.5 * (cov[0] + cov[4]) if msg.position_covariance_type > 0 else 1.0
         self.estimator.on_fix(t, float(e), float(n), var)
 
-    def _scale(self):
-        return self.dist.deweight_factor if self.disturbed else 1.0
-
     # ---- output -------------------------------------------------------------------------------------------
     def _publish(self, t, heading, variance):
         if not (math.isfinite(heading) and math.isfinite(variance)):
-            self.rejected["non-finite"] += 1
+            self._reject("non_finite_output")
             return
         tilt = self._tilt_at(t) if self.tilt_source != "none" else None
         roll, pitch_up = tilt if tilt is not None else (0.0, 0.0)
@@ -241,24 +280,37 @@ class HeadingNode(Node):
         self.last_heading = (t, heading, variance)
 
     def _diagnose(self):
-        now = max(self.last_seen.values(), default=0.0)
-        needed = ["gyro"] + (["fix"] if self.settings.estimator == "gnss_gyro_lsm" else ["mag"])
-        if self.tilt_source != "none" and self.settings.estimator != "gnss_gyro_lsm":
+        now = self.now
+        uses_gds = self.settings.estimator != "gnss_gyro_lsm"
+        needed = ["gyro"] + (["mag"] if uses_gds else ["fix"])
+        if self.tilt_source != "none" and uses_gds:
             needed.append("tilt")
         stale = [k for k in needed if now - self.last_seen.get(k, -math.inf) > self.stale_timeout]
-        values = {"estimator": self.settings.estimator, "published": self.published, **self.rejected,
+        recent = self.events.recent(now)
+        flagged = recent.pop("disturbed_gds", 0)
+        gate = self.gate
+        values = {"estimator": self.settings.estimator, "published": self.published,
+                  "window_s": self.events.window, **{f"rejected_{k}": v for k, v in sorted(recent.items())},
+                  "disturbed_gds_samples": flagged, "gds_disturbed": gate.disturbed,
                   "field_intensity_error": f"{self.field_error[0]:.3f}",
                   "field_inclination_error_deg": f"{math.degrees(self.field_error[1]):.2f}",
+                  "gds_gyro_innovation_deg": f"{math.degrees(gate.innovation):.2f}",
+                  "gds_gyro_innovation_sigma_deg": f"{math.degrees(gate.sigma):.2f}",
                   "declination_source": "fix" if self.fix else ("site" if len(self.site) == 3 else "none"),
                   "gyro_drift_deg_s": f"{math.degrees(self.estimator.drift):.4f}"}
         if self.last_heading:
             values["heading_std_deg"] = f"{math.degrees(math.sqrt(self.last_heading[2])):.3f}"
         if stale:
             return ERROR, f"stale: {', '.join(stale)}", values
-        if self.disturbed:
-            return WARN, "magnetic disturbance: field off the WMM value, GDS de-weighted", values
-        if self.settings.estimator != "gnss_gyro_lsm" and values["declination_source"] == "none":
+        if uses_gds and gate.disturbed:
+            cause = ("field strength/inclination off the WMM value" if gate.reason == "field"
+                     else "GDS heading disagrees with the gyro")
+            return WARN, f"magnetic disturbance ({cause}): GDS not fused, gyro-only heading", values
+        if uses_gds and values["declination_source"] == "none":
             return WARN, "no fix/site for the WMM declination: GDS heading withheld", values
+        if recent:
+            return WARN, f"inputs rejected in the last {self.events.window:g} s: " + ", ".join(
+                f"{k} {v}" for k, v in sorted(recent.items())), values
         return OK, "ok", values
 
 
