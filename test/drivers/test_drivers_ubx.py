@@ -114,7 +114,8 @@ def feed_paced(data, chunk=64):
     b"\xb5\x62\x01\x35\xb8\x0b",   # NAV-SAT (no length rule) claiming 3000 bytes: a valid frame inside gives it away
     b"\xb5\x62\x77\x01\x10\x00",   # unknown class
     b"\xb5\x62\x02\x15\x10\x04\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x05",  # RXM-RAWX 1040 B, 5 meas
-], ids=["nav_pvt_8000", "nav_sat_3000", "unknown_class", "rawx_count_mismatch"])
+    b"\xb5\x62\x01\x35\xb8\x0b\xb5\x62\x01\x43\xd0\x07",  # NAV-SAT 3000 B holding a NAV-SIG 2000 B header
+], ids=["nav_pvt_8000", "nav_sat_3000", "unknown_class", "rawx_count_mismatch", "nested"])
 def test_corrupt_header_does_not_stall_or_restamp_the_stream(header):
     cut = SF.index(b"\xb5\x62", 20000)  # a frame boundary ~40 s into the drive
     data = SF[:cut] + header + SF[cut:]

@@ -204,16 +204,16 @@ class UbxParser:
     def _frame_inside(self, length: int) -> bool:
         """True when a complete frame with a valid checksum starts inside the awaited frame: its header
         (length) was corrupt. Scans each buffered byte once."""
-        buf, i = self._buf, max(self._scan, 2)
+        buf, i, pending = self._buf, max(self._scan, 2), None
         while (i := buf.find(SYNC, i)) >= 0 and len(buf) - i >= 6:
             if header_problem(buf[i:i + 22]) is None:
                 end = i + 8 + int.from_bytes(buf[i + 4:i + 6], "little")
                 if end > len(buf):
-                    break  # decide once it is complete
-                if end <= 8 + length and pyubx2.isvalid_checksum(bytes(buf[i:end])):
+                    pending = i if pending is None else pending  # look at it again once it is complete
+                elif end <= 8 + length and pyubx2.isvalid_checksum(bytes(buf[i:end])):
                     return True
             i += 1
-        self._scan = len(buf) - 1 if i < 0 else i
+        self._scan = pending if pending is not None else len(buf) - 1 if i < 0 else i
         return False
 
     def _arrival(self, size: int) -> float:
