@@ -1,5 +1,6 @@
 """rclpy test of gnss_correction_node: the corrected fix of a known tilted pose is the antenna minus R(rpy) lever."""
 import math
+import time
 
 import numpy as np
 import pytest
@@ -58,7 +59,9 @@ def run_node(ros, fixes, odom_stamps, status=None, cov=(1e-4, 0, 0, 0, 1e-4, 0, 
         fix.position_covariance_type = NavSatFix.COVARIANCE_TYPE_KNOWN if cov_type is None else cov_type
         fix_pub.publish(fix)
         spin(ex, 5)
-    spin(ex)
+    deadline = time.monotonic() + 0.8  # a fix waits up to max_attitude_age (0.5 s) for the attitude of its epoch
+    while time.monotonic() < deadline:
+        spin(ex, 1)
     counts = dict(node.counts)
     ex.shutdown()
     node.destroy_node()

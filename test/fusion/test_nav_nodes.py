@@ -99,7 +99,7 @@ def test_attitude_node_publishes_level_orientation(ros):
 def test_accelerometer_tilt_recovers_a_known_attitude():
     from agnav_common.frames import rotation_matrix
 
-    from agnav_fusion.nav_sensor_module_node import accelerometer_tilt
+    from agnav_fusion.pipeline import accelerometer_tilt
 
     for roll, pitch in ((0.1, -0.2), (-0.3, 0.05), (0.0, 0.0)):
         f = rotation_matrix(roll, pitch, 1.0).T @ np.array([0.0, 0.0, 9.81])  # specific force at rest, FLU

@@ -30,7 +30,7 @@ class AttitudeNode(NavSensorModuleNode):
 
     def mounts_ready(self):
         """The attitude needs only the IMU mount; a missing GNSS mount means a zero lever arm."""
-        if self.imu_rotation is None and self.tf.lookup(self.frames["base"], self.frames["imu"]) is not None \
+        if self.pipeline.imu_rotation is None and self.tf.lookup(self.frames["base"], self.frames["imu"]) is not None \
                 and self.tf.lookup(self.frames["base"], self.frames["gnss"]) is None:
             self.frames["gnss"] = self.frames["base"]
         return super().mounts_ready()

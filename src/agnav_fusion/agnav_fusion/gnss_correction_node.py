@@ -4,6 +4,7 @@ one nearest the fix epoch; the covariance adds the attitude variance projected t
 a position (status NO_FIX), with non-finite values or a covariance that cannot be believed, or stamped off the
 stream's time are not corrected and are counted; diagnostics report the last `diagnostic_window` s.
 """
+import math
 from collections import deque
 
 import numpy as np
@@ -32,6 +33,8 @@ class GnssCorrectionNode(Node):
         self.tf = TfBuffer(self)
         self.attitudes = deque(maxlen=400)  # (t, heading, pitch nose-up, roll, variances) thesis conventions
         self.clock = StreamClock()
+        self.pending = []  # (t, fix, covariance, known, node arrival time) waiting for the attitude of their epoch
+        self.create_timer(0.1, self.correct_pending)
         self.counts = {}
         self.events = EventWindow(p("diagnostic_window", 10.0))  # s of node time the diagnostics describe
         self.pub = self.create_publisher(NavSatFix, "/gnss/fix_corrected", PUBLISHER_QOS)
@@ -59,6 +62,7 @@ class GnssCorrectionNode(Node):
         if np.all(np.isfinite([roll, pitch, yaw])):
             self.attitudes.append((to_sec(msg.header.stamp), float(heading_from_yaw(yaw)), -pitch, roll,
                                    (c[21], c[28], c[35])))
+            self.correct_pending()
 
     def on_fix(self, msg):
         t = to_sec(msg.header.stamp)
@@ -77,13 +81,26 @@ class GnssCorrectionNode(Node):
         if reason:
             self.count(reason)
             return
+        self.pending.append((t, msg, cov, known, self.now()))
+        self.correct_pending()
+
+    def correct_pending(self):
+        """Correct the waiting fixes whose epoch the attitude stream has reached (the module's odometry may arrive
+        after the fix), or that have waited max_attitude_age of node time."""
+        latest = self.attitudes[-1][0] if self.attitudes else -math.inf
+        while self.pending and (self.pending[0][0] <= latest
+                                or self.now() - self.pending[0][4] > self.max_attitude_age):
+            t, msg, cov, known, _ = self.pending.pop(0)
+            att = min(self.attitudes, key=lambda a: abs(a[0] - t), default=None)
+            if att is None or abs(att[0] - t) > self.max_attitude_age:
+                self.count("no_attitude")
+            else:
+                self.correct(msg, cov, known, att)
+
+    def correct(self, msg, cov, known, att):
         mount = self.tf.lookup(self.base_frame, self.gnss_frame)
         if mount is None:
             self.count("no_tf")
-            return
-        att = min(self.attitudes, key=lambda a: abs(a[0] - t), default=None)
-        if att is None or abs(att[0] - t) > self.max_attitude_age:
-            self.count("no_attitude")
             return
         _, heading, pitch, roll, (v_roll, v_pitch, v_yaw) = att
         lever = tilt_correction.lever_from_flu(mount[0])

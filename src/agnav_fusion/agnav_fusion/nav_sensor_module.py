@@ -21,6 +21,7 @@ from agnav_fusion.gnss_heading_lsm import GnssGyroHeading, GnssGyroHeadingSettin
 from agnav_fusion.nav_ekf import IB, IPHI, IV, IA, NavEKF, NavEKFSettings
 
 GRAVITY = 9.80665
+MOUNTS = ("lever_flu", "incl_lever_flu")  # settings that come from TF, not from parameters
 
 
 @dataclass

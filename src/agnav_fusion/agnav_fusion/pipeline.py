@@ -1,0 +1,163 @@
+"""The navigation pipeline: front end + estimator backend, driven by the sensor messages themselves. ROS-free.
+
+nav_sensor_module_node, the offline replay of a bag (agnav_fusion.bag_replay), the closed-loop simulation and the
+benchmarks all call the same `on_*` methods with the same messages (rclpy messages in the node, rosbags messages
+offline: the same fields), so what a benchmark measures is what the node publishes.
+
+Front end (what every estimator needs once):
+- mounts: the IMU rotation into base_link, GNSS and inclinometer lever arms (from TF in the node, /tf_static
+  offline), set once by `set_mounts`; nothing is used before them;
+- the map datum: the `datum` setting or the first good fix; geodetic fixes -> map ENU;
+- NO_FIX and impossible fixes never reach the estimator; a covariance of type UNKNOWN becomes `unknown_fix_sigma`;
+- fix/velocity epoch pairing: a receiver publishes /gnss/fix before the /gnss/vel of the same epoch, so once a
+  velocity has been seen a fix waits for its own up to `velocity_wait` s of IMU time; without /gnss/vel the
+  velocity of the fixes over the last `fix_velocity_baseline` m (at most FIX_HISTORY fixes back) is used;
+- the tilt source: inclinometer messages, or the accelerometer's gravity direction (`tilt_source: accelerometer`).
+The backend (NavSensorModule: estimator `agnav` or `thesis`) guards values and stamps, replays late fixes against
+its IMU history and keeps the covariances.
+"""
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from agnav_common.geodesy import LocalTangentPlane
+
+VEL_MATCH_S = 0.1   # s, a /gnss/vel within this of a fix epoch is fused with it
+FIX_HISTORY = 10    # fixes kept for the fix-difference velocity
+STATUS_FIX = 0      # sensor_msgs/NavSatStatus: below this there is no position
+COVARIANCE_TYPE_UNKNOWN = 0
+
+
+def stamp_seconds(header):
+    return header.stamp.sec + header.stamp.nanosec * 1e-9
+
+
+def accelerometer_tilt(f):
+    """REP-103 (roll, pitch) of the specific force f (base_link FLU, m/s^2; +g up at rest)."""
+    return math.atan2(f[1], f[2]), math.atan2(-f[0], math.hypot(f[1], f[2]))
+
+
+@dataclass
+class FrontEndSettings:
+    datum: tuple = (0.0,)               # [lat deg, lon deg, ellipsoidal alt m]; shorter: the first good fix
+    tilt_source: str = "inclinometer"   # inclinometer | accelerometer (/imu/data_raw)
+    velocity_wait: float = 0.2          # s of IMU time a fix waits for its /gnss/vel
+    fix_velocity_baseline: float = 2.0  # m; 0: no velocity without /gnss/vel
+    unknown_fix_sigma: float = 1.0      # m per axis of a fix whose covariance type is UNKNOWN
+
+
+class NavigationPipeline:
+    """on_imu / on_inclinometer / on_fix / on_velocity / on_wheel(msg); on_imu returns the new state (None when the
+    sample was not used); ready(state): heading and position initialised, the state is published.
+    `on_datum(lat, lon, alt, stamp)` is called when the datum is set."""
+
+    def __init__(self, backend, settings=None, on_datum=None):
+        self.settings = s = settings or FrontEndSettings()
+        if s.tilt_source not in ("inclinometer", "accelerometer"):
+            raise ValueError(f"tilt_source must be inclinometer or accelerometer, not {s.tilt_source!r}")
+        self.backend = backend
+        self.guard = backend.guard
+        self.on_datum = on_datum
+        self.imu_rotation = None
+        self.plane = None
+        self.velocities = []     # (t, ENU velocity, variance or None) of recent /gnss/vel
+        self.pending_fixes = []  # (t, enu, cov, deadline) waiting for their velocity
+        self.recent_fixes = []   # (t, enu, cov) for the fix-difference velocity
+        self.last_imu_t = 0.0
+        self.datum_args = tuple(float(v) for v in s.datum[:3]) if len(s.datum) >= 3 else None
+
+    def start(self):
+        """Announce a configured datum (call once the consumer of on_datum is ready)."""
+        if self.datum_args is not None and self.plane is None:
+            self._set_datum(*self.datum_args, stamp=None)
+
+    def set_mounts(self, imu_rotation, gnss_lever, incl_lever):
+        """base_link <- imu_link rotation (3x3) and the base_link -> gnss_link / inclinometer_link translations."""
+        self.imu_rotation = np.asarray(imu_rotation, dtype=float)
+        self.backend.set_mounts(gnss_lever, incl_lever)
+
+    def _set_datum(self, lat, lon, alt, stamp):
+        self.plane = LocalTangentPlane(float(lat), float(lon), float(alt))
+        if self.on_datum:
+            self.on_datum(lat, lon, alt, stamp)
+
+    # ---- inputs -----------------------------------------------------------------------------------------
+    def on_imu(self, msg):
+        if self.imu_rotation is None:
+            self.guard.count("missing_tf")
+            return None
+        t = stamp_seconds(msg.header)
+        self._submit_fixes(lambda fix: fix[3] < t)
+        if self.settings.tilt_source == "accelerometer":
+            a = msg.linear_acceleration
+            self.backend.inclinometer(t, *accelerometer_tilt(self.imu_rotation @ np.array([a.x, a.y, a.z])))
+        w = msg.angular_velocity
+        state = self.backend.imu(t, self.imu_rotation @ np.array([w.x, w.y, w.z]))
+        if state is not None:
+            self.last_imu_t = max(self.last_imu_t, state.t)
+        return state
+
+    @staticmethod
+    def ready(state):
+        """Like robot_localization, nothing is published before heading and position are initialised."""
+        return state.heading_valid and state.position_valid
+
+    def on_inclinometer(self, msg):
+        if self.settings.tilt_source == "inclinometer":
+            self.backend.inclinometer(stamp_seconds(msg.header), msg.roll, msg.pitch)
+
+    def on_wheel(self, msg):
+        var = msg.twist.covariance[0]  # 0 or -1: unknown (the module's wheel_speed_sigma); negative/NaN: rejected
+        var = None if var in (0.0, -1.0) else (var if var > 0 else math.nan)
+        self.backend.wheel_speed(stamp_seconds(msg.header), msg.twist.twist.linear.x, var)
+
+    def on_velocity(self, msg):
+        v, c = msg.twist.twist.linear, msg.twist.covariance
+        # -1: unknown (the module's velocity_sigma); NaN or a negative variance: the velocity is dropped, counted
+        var = None if c[0] == -1.0 else ((c[0] + c[7]) / 2 if c[0] >= 0 and c[7] >= 0 else math.nan)
+        self.velocities = (self.velocities + [(stamp_seconds(msg.header), np.array([v.x, v.y, v.z]), var)])[-10:]
+        self._submit_fixes(lambda fix: self._velocity_at(fix[0]) is not None)
+
+    def on_fix(self, msg):
+        if msg.status.status < STATUS_FIX:
+            self.guard.count("gnss_no_fix")
+            return
+        lat, lon, alt = msg.latitude, msg.longitude, msg.altitude
+        if not (np.all(np.isfinite([lat, lon, alt])) and abs(lat) <= 90.0 and abs(lon) <= 180.0):
+            self.guard.count("gnss_bad_value")
+            return
+        if self.plane is None:
+            self._set_datum(lat, lon, alt, msg.header.stamp)
+        t = stamp_seconds(msg.header)
+        enu = np.array(self.plane.to_enu(lat, lon, alt), dtype=float)
+        if msg.position_covariance_type == COVARIANCE_TYPE_UNKNOWN:
+            cov = np.eye(3) * self.settings.unknown_fix_sigma ** 2
+        else:
+            cov = np.array(msg.position_covariance, dtype=float).reshape(3, 3)
+        self.pending_fixes.append((t, enu, cov, self.last_imu_t + self.settings.velocity_wait))
+        if not (self.velocities and self.settings.velocity_wait > 0 and self._velocity_at(t) is None):
+            self._submit_fixes(lambda fix: True)
+
+    # ---- fix / velocity pairing -----------------------------------------------------------------------
+    def _velocity_at(self, t):
+        """(ENU velocity, per-axis variance or None) of /gnss/vel at the fix epoch t, else None."""
+        return next(((v, var) for tv, v, var in self.velocities if abs(tv - t) <= VEL_MATCH_S), None)
+
+    def _fix_velocity(self, t, enu, cov):
+        """(ENU velocity, per-axis variance) from the latest earlier fix at least fix_velocity_baseline m away
+        (variance: both fixes' horizontal variances over the time squared), else None."""
+        base = next(((t0, p0, c0) for t0, p0, c0 in reversed(self.recent_fixes)
+                     if t0 < t and np.hypot(*(enu[:2] - p0[:2])) >= self.settings.fix_velocity_baseline), None)
+        self.recent_fixes = (self.recent_fixes + [(t, enu, cov)])[-FIX_HISTORY:]
+        if base is None or self.settings.fix_velocity_baseline <= 0:
+            return None
+        dt = t - base[0]
+        return (enu - base[1]) / dt, float(np.trace(cov[:2, :2]) + np.trace(base[2][:2, :2])) / 2 / dt ** 2
+
+    def _submit_fixes(self, due):
+        """Hand the pending fixes up to the last due one to the backend, in epoch order."""
+        last = max((i for i, fix in enumerate(self.pending_fixes) if due(fix)), default=-1)
+        for t, enu, cov, _ in self.pending_fixes[:last + 1]:
+            vel = self._velocity_at(t) if self.velocities else self._fix_velocity(t, enu, cov)
+            self.backend.gnss(t, enu, cov, *(vel or ()))
+        del self.pending_fixes[:last + 1]
