@@ -149,11 +149,11 @@ def test_live_run_follows_an_external_clock(ros, tmp_path, how):
     clock, probe = node.create_publisher(Clock, "/clock", 10), node.create_publisher(String, "/probe", 10)
     proc = subprocess.Popen([AGNAV, "run", str(cfg), "--live", "--record", str(tmp_path / "out"), "--duration", "6",
                              *(["--sim-time"] if how == "flag" else [])], stdout=subprocess.PIPE, text=True, env=ENV)
-    k = 0
-    while proc.poll() is None and k < 2000:
-        t = sim_t0 + 0.1 * k
+    k, t = 0, sim_t0
+    while proc.poll() is None and k < 3000:
+        t = sim_t0 + 0.01 * k  # about real time
         clock.publish(Clock(clock=to_stamp(t)))
-        probe.publish(String(data=f"{t:.1f}"))
+        probe.publish(String(data=f"{t:.2f}"))
         k += 1
         time.sleep(0.01)
     assert proc.wait(timeout=30) == 0
@@ -161,8 +161,8 @@ def test_live_run_follows_an_external_clock(ros, tmp_path, how):
     with AnyReader([tmp_path / "out"]) as reader:
         stamps = [(t, raw) for c, t, raw in reader.messages() if c.topic == "/probe"]
     assert len(stamps) > 10
-    for t_ns, raw in stamps:  # stamped with the /clock published along with the message, not wall time
-        assert t_ns * 1e-9 == pytest.approx(float(deserialize_message(raw, String).data), abs=0.5)
+    for t_ns, raw in stamps:  # stamped with the /clock published with the message (or later), not wall time
+        assert float(deserialize_message(raw, String).data) - 0.5 <= t_ns * 1e-9 <= t + 1e-6
 
 
 def test_progress_bar_only_on_a_terminal(tmp_path):
