@@ -93,3 +93,8 @@ def test_magnetic_disturbance_flagged():
     bad_i, _, d_i = disturbance(expected.total, expected.inclination + math.radians(9), expected, s)
     assert bad_f and d_f == pytest.approx(0.3)
     assert bad_i and d_i == pytest.approx(math.radians(9))
+    # attitude unknown: the rotation-invariant strength alone
+    ok_f, _, nan_i = disturbance(expected.total * 1.02, None, expected, s)
+    assert not ok_f and math.isnan(nan_i)
+    assert disturbance(expected.total * 0.7, None, expected, s)[0]
+    assert disturbance(0.0, None, expected, s)[0]                    # a dead sensor

@@ -22,6 +22,7 @@ from agnav_fusion.variance_weighted_average import VariableTargetVwa, VwaSetting
 
 ESTIMATORS = ("gds_kf", "vwa", "gds_gyro_lsm", "gnss_gyro_lsm")
 MIN_VARIANCE = math.radians(0.05) ** 2
+DRIFT_WINDOW_S = 10.0   # the gyro-only heading uses the mean LSM drift of this span (one estimate is noisy)
 
 
 @dataclass
@@ -104,6 +105,7 @@ class HeadingEstimator:
                 DriftLsmSettings(window=max(1, int(round(s.lsm_window_s * s.imu_rate_hz))), delay=delay, dt=dt),
                 DelayedVwaSettings(window=s.lsm_vwa.window, interval=s.lsm_vwa.interval, delay=delay, dt=dt))
         self.drift = 0.0
+        self._drifts: deque = deque()   # (t, LSM drift) of the last DRIFT_WINDOW_S s on clean GDS
         self.disturbed = False    # the GDS is flagged: the heading follows the gyro alone
         self._clean = None        # (t, heading, variance, gyro-only heading) of the last output on clean GDS
         self._clean_gds = None    # (GDS heading, gyro-only heading) of the last clean GDS sample
@@ -112,7 +114,7 @@ class HeadingEstimator:
 
     def on_gyro(self, t: float, rate: float, dt: float):
         """Yaw rate (clockwise rad/s) at t; returns (t, heading, variance) for the per-sample estimators."""
-        self.gyro.add(t, rate, self.drift)
+        self.gyro.add(t, rate, self._drift_mean()[0])
         self._rate = rate
         if self._gnss is not None:
             heading = self._gnss.on_gyro(rate, dt)
@@ -126,6 +128,9 @@ class HeadingEstimator:
             if self.disturbed:      # the LSM runs on the gyro-propagated GDS; the output is the gyro's
                 return self._hold(t)
             self.drift = drift
+            self._drifts.append((t, drift))
+            while self._drifts[0][0] <= t - DRIFT_WINDOW_S:
+                self._drifts.popleft()
             return self._clean_output(t, heading, var if math.isfinite(var) else math.radians(2.0) ** 2)
         return None
 
@@ -137,6 +142,7 @@ class HeadingEstimator:
         if disturbed:
             self.disturbed = True
             if self._clean_gds is not None and gyro is not None:   # LSM input: the last clean GDS + gyro turn
+                # (with the mean drift: the LSM's drift stays near it)
                 self._last_gds = wrap_angle(self._clean_gds[0] + corrected - self._clean_gds[1])
             return self._hold(t) if self._lsm is None and gyro is not None else None
         if self.disturbed:
@@ -171,13 +177,24 @@ class HeadingEstimator:
             self._clean = (t, heading, var, gyro)
         return t, heading, var
 
+    def _drift_mean(self):
+        """(mean, spread) of the recent LSM drift estimates (0, 0 for the estimators without one)."""
+        if not self._drifts:
+            return 0.0, 0.0
+        d = [x for _, x in self._drifts]
+        mean = sum(d) / len(d)
+        return mean, math.sqrt(sum((x - mean) ** 2 for x in d) / len(d))
+
     def _hold(self, t):
-        """Gyro-only heading from the last clean output, variance grown by the gyro errors since."""
+        """Gyro-only heading from the last clean output (gyro with the mean drift), variance grown by the gyro
+        errors and the drift's spread since."""
         gyro = self.gyro.at(t, corrected=True)
         if self._clean is None or gyro is None:
             return None
         t0, h0, v0, g0 = self._clean
-        return t, wrap_angle(h0 + gyro - g0), v0 + propagation_variance(self.s.gyro, t - t0)
+        tau = t - t0
+        var = v0 + propagation_variance(self.s.gyro, tau) + (self._drift_mean()[1] * tau) ** 2
+        return t, wrap_angle(h0 + gyro - g0), var
 
     def _recover(self, t):
         """First clean GDS after a disturbance: the KF's drift state μ has not been observed since its last GDS."""

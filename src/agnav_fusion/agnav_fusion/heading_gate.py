@@ -1,8 +1,8 @@
 """Magnetic-disturbance gate of the GDS heading (agnav issue 16 item 10). ROS-free; rad, s, clockwise headings.
 
 A GDS sample is disturbed when its field is off the reference (intensity/inclination, geomagnetic_model.disturbance)
-or when its heading disagrees with the integrated gyro: the GDS−gyro offset o = φ_GDS − φ_gyro is constant up to the
-GDS noise and the gyro drift, so o is compared with the mean offset ō of the last `reference_window` s of clean
+or when its heading disagrees with the integrated gyro: the GDS−gyro offset o = φ_GDS − φ_gyro is constant up to
+the GDS noise and the gyro drift, so o is compared with the mean offset ō of the last `reference_window` s of clean
 samples. The test keeps the rotations of the field that leave its strength and dip unchanged from being fused.
 While disturbed the GDS is not fused and the heading is the gyro's alone, its variance growing with the gyro's
 residual bias, angle random walk and bias random walk (`propagation_variance`). The gate reopens after

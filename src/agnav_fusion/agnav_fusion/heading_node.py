@@ -16,6 +16,11 @@ Magnetic disturbance (heading_gate), decided when a GDS sample arrives (with the
 does not wait for the ALE-delayed tilt): its intensity or inclination is off the WMM value, or its heading
 disagrees with the integrated gyro (innovation test). A flagged sample is not fused; the heading follows the gyro
 alone with a growing variance (gyro.*) and /diagnostics is WARN until the gate reopens.
+Parameters of the gate: disturbance.intensity_tolerance, disturbance.inclination_tolerance_deg,
+disturbance.innovation_k_sigma (4), disturbance.reference_window (10 s), disturbance.recover_time (1 s),
+disturbance.offset_sigma_floor_deg; gyro.bias_sigma_deg_s (the bias the estimator does not remove: VWA/KF the
+whole bias, LSM its residual), gyro.arw_deg_sqrt_s, gyro.bias_walk_deg_s_sqrt_s; gds.systematic_sigma_deg (0.4,
+added to the GDS estimators' variance). disturbance.deweight_factor is obsolete (accepted, ignored).
 Input stamps: one agnav_common.input_guard.StreamClock per stream (a lone future stamp is rejected, never
 moves the stream's time).
 """
