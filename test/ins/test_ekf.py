@@ -17,7 +17,7 @@ def field():
     return traj, sy.ideal_imu(traj)
 
 
-def _run(field, seed, heading_guess, outages=(), tamper=None):
+def _run(field, seed, heading_guess, outages=(), tamper=None, imu_gaps=()):
     traj, (gyro, accel) = field
     rng = np.random.default_rng(seed)
     g, a, _, _ = sy.MemsGrade().corrupt(gyro, accel, 0.01, rng)
@@ -25,7 +25,7 @@ def _run(field, seed, heading_guess, outages=(), tamper=None):
     if tamper:
         tamper(gnss)
     ekf = InsEkf(InsEkfSettings(lever_gnss_frd=LEVER, initial_heading=heading_guess))
-    return ekf, sy.run_ins(ekf, traj, g, a, gnss, outages)
+    return ekf, sy.run_ins(ekf, traj, g, a, gnss, outages, imu_gaps=imu_gaps)
 
 
 @pytest.mark.parametrize("offset_deg", [180.0, -179.0, 90.0])
@@ -79,3 +79,34 @@ def test_bad_input_is_rejected():
     bad = sy.GnssSample(1.0, math.nan, 0.0, 0.0, np.eye(3))
     assert ekf.add_gnss(bad) == "gnss_nan"
     assert ekf.solution() is None                                   # unknown heading, not moving yet
+
+
+@pytest.mark.parametrize("start,length", [(55.0, 0.11), (55.0, 1.5), (55.0, 2.0), (63.0, 2.0)])
+def test_imu_gap_is_bridged_with_honest_covariance(field, start, length):
+    """Missing IMU samples (on a straight pass; 63 s: in a headland turn) are bridged, not skipped: every error
+    stays within 3 sigma, GNSS is accepted again at once and the run is back on the gap-free one."""
+    gap = [(start, start + length)]
+    clean_ekf, clean = _run(field, 5, 2.5)
+    ekf, err = _run(field, 5, 2.5, imu_gaps=gap)
+    assert ekf.stats["bridged"] == {"imu_gap": 1}
+    assert ekf.stats["rejected"].get("position", 0) == clean_ekf.stats["rejected"].get("position", 0)
+    settled = err.t > 30.0
+    horizontal = np.linalg.norm(err.pos[settled, :2], axis=1)
+    assert np.all(horizontal <= 3.0 * err.pos_sigma[settled])
+    heading = np.abs(err.att[settled, 2])
+    assert np.all(heading <= 3.0 * err.heading_sigma[settled])
+    after = err.t >= start + length + 2.0
+    same = np.isin(clean.t, err.t[after])
+    assert np.abs(err.pos[after, :2] - clean.pos[same, :2]).max() < 0.1
+    first = np.argmax(err.t > start + length)           # the bridged solution itself: sigma covers the error
+    assert horizontal[np.argmax(err.t[settled] > start + length)] <= 3.0 * err.pos_sigma[first]
+
+
+def test_future_gnss_epoch_is_rejected():
+    """An epoch far ahead of the IMU time is rejected instead of shutting out every later epoch."""
+    ekf = InsEkf()
+    for k in range(1, 11):
+        ekf.add_imu(10.0 + 0.01 * k, [0, 0, 0], [0, 0, -9.8])
+    fix = lambda t: sy.GnssSample(t, 0.7, 2.4, 10.0, np.eye(3) * 1e-4)  # noqa: E731
+    assert ekf.add_gnss(fix(1010.0)) == "gnss_future"
+    assert ekf.add_gnss(fix(10.05)) is None

@@ -93,8 +93,8 @@ def test_ins_node_tracks_the_simulated_run(ros):
         errors.append(math.hypot(o.pose.pose.position.x - p.position.x, o.pose.pose.position.y - p.position.y))
     late = np.array(errors[-1000:])                 # last 10 s, after the in-motion alignment
     assert late.max() < 0.1
-    assert node.stamp_guards["imu"].rejected == 1
-    assert node.ekf.stats["rejected"].get("imu_nan") == 1
+    assert node.events.totals.get("imu_backwards_stamp") == 1     # the repeated sample
+    assert node.events.totals.get("imu_nan") == 1 and node.ekf.stats["rejected"].get("imu_nan") == 1
     h = node.check_filter()[2]
     assert h["mode"] == "gnss_aided" and h["gnss_epochs"] > 100
     node.destroy_node()
@@ -115,4 +115,80 @@ def test_ins_node_reports_missing_accelerometers(ros):
     node.on_imu(msg)
     level, text, values = node.check_inputs()
     assert level == ERROR and "accelerometers" in text and values["no_accel"] == 1
+    node.destroy_node()
+
+
+def test_ins_node_checks_gnss_stamps_values_and_covariances(ros):
+    """NaN / negative / indefinite covariances are rejected, zero ones replaced by the default, tiny ones floored,
+    NO_FIX fixes never used (not even as the datum), a lone fix far ahead of the IMU time rejected without
+    shutting out the next ones; the inputs diagnostic shows each problem and forgets it after its window."""
+    from geometry_msgs.msg import TwistWithCovarianceStamped
+    from rclpy.parameter import Parameter
+    from rclpy.time import Time
+    from sensor_msgs.msg import Imu, NavSatFix
+    from tf2_msgs.msg import TFMessage
+
+    from agnav_common.diagnostics import OK, WARN
+    from agnav_common.stamps import to_stamp
+    from agnav_common.tf import make_transform
+    from agnav_fusion.ins_node import InsNode
+
+    node = InsNode(parameter_overrides=[Parameter("use_sim_time", value=True)])
+    clock = node.get_clock()
+    clock.set_ros_time_override(Time(seconds=100))
+    node.tf._on_tf(TFMessage(transforms=[
+        make_transform("base_link", "imu_link", to_stamp(1.0), (0.0, 0.0, 0.5), (0.0, 0.0, 0.0, 1.0)),
+        make_transform("base_link", "gnss_link", to_stamp(1.0), (0.0, 0.0, 2.0), (0.0, 0.0, 0.0, 1.0))]))
+    imu = Imu()
+    imu.header.stamp = to_stamp(100.0)
+    imu.linear_acceleration.z = 9.8
+    node.on_imu(imu)
+
+    def fix(t, cov, status=0, lat=43.0, lon=141.0):
+        m = NavSatFix()
+        m.header.stamp = to_stamp(t)
+        m.status.status = status
+        m.latitude, m.longitude, m.altitude = lat, lon, 50.0
+        m.position_covariance = [float(v) for v in np.ravel(cov)]
+        m.position_covariance_type = NavSatFix.COVARIANCE_TYPE_KNOWN
+        return m
+
+    def vel(t, cov):
+        m = TwistWithCovarianceStamped()
+        m.header.stamp = to_stamp(t)
+        c = np.zeros((6, 6))
+        c[:3, :3] = cov
+        m.twist.covariance = [float(v) for v in c.ravel()]
+        return m
+
+    good = np.eye(3) * 1e-4
+    rejected = {"fix_no_fix": fix(99.90, good, status=-1, lat=0.0, lon=0.0),
+                "fix_nan_covariance": fix(99.91, np.full((3, 3), math.nan)),
+                "fix_negative_covariance": fix(99.92, -good),
+                "fix_indefinite_covariance": fix(99.93, [[1e-4, 1e-3, 0], [1e-3, 1e-4, 0], [0, 0, 1e-4]]),
+                "fix_stamp_off_reference": fix(1100.0, good)}
+    for name, msg in rejected.items():
+        node.on_fix(msg)
+        assert node.pending_fix is None and node.events.totals.get(name) == 1, name
+    assert node.plane is None                       # the NO_FIX fix did not become the datum
+    node.on_fix(fix(99.94, np.zeros((3, 3))))       # all zero: not given -> the default
+    assert np.allclose(node.pending_fix.pos_cov_enu, np.eye(3) * node.default_fix_sigma ** 2)
+    node.on_fix(fix(99.95, np.diag([1e-9, 1e-4, 1e-4])))   # tiny: floored
+    assert np.allclose(np.diag(node.pending_fix.pos_cov_enu), [node.min_fix_sigma ** 2, 1e-4, 1e-4])
+    assert node.events.totals.get("fix_zero_covariance") == 1 and node.events.totals.get("fix_floored_covariance") == 1
+
+    for name, cov in (("vel_nan_covariance", np.full((3, 3), math.nan)), ("vel_negative_covariance", -good)):
+        node.on_vel(vel(99.96 + 0.001 * len(node.events.totals), cov))
+        assert not node.velocities and node.events.totals.get(name) == 1, name
+    node.on_vel(vel(99.98, np.zeros((3, 3))))
+    node.on_vel(vel(99.99, np.diag([1e-4, 0.0, 1e-4])))
+    assert np.allclose(node.velocities[0][2], np.eye(3) * node.default_vel_sigma ** 2)
+    assert np.allclose(np.diag(node.velocities[1][2]), [1e-4, node.min_vel_sigma ** 2, 1e-4])
+
+    level, message, values = node.check_inputs()
+    assert level == WARN and "fix_nan_covariance 1" in message and values["recent_fix_no_fix"] == 1
+    clock.set_ros_time_override(Time(seconds=106))  # the window has passed: the present is clean again
+    node.imu_time = 106.0                           # (and the IMU still alive)
+    level, message, values = node.check_inputs()
+    assert level == OK and values["total_fix_no_fix"] == 1 and not any(k.startswith("recent_") for k in values)
     node.destroy_node()

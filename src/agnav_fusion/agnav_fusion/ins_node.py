@@ -6,7 +6,13 @@ The wander-azimuth strapdown INS with the 16-state error EKF (`agnav_fusion.ins`
 the imu_link origin; mounts come from TF (base_link->imu_link, base_link->gnss_link) and the filter starts once
 both are known. The heading may be unknown: the filter initialises when driving and aligns in motion. GNSS
 messages are stamped at their epoch and arrive late: the core applies them against its history. A fix and the
-/gnss/vel of the same epoch are fused together. Bad stamps and values are rejected, counted and reported.
+/gnss/vel of the same epoch are fused together.
+
+Input guards (agnav_common.input_guard): one StreamClock per stream (IMU, fix, vel; lone future stamps never move a
+clock, GNSS stamps must lie within [IMU time - history, IMU time + max_gnss_lead]); fix/velocity covariances are
+checked (NaN/negative/indefinite: rejected; tiny: floored; all zero: the default); NO_FIX fixes are never used.
+IMU gaps are bridged by the core with covariance growth. /diagnostics describe the present: rejections of the last
+`diagnostic_window` s (EventWindow on the node clock) and the IMU age; totals are reported as values.
 """
 import dataclasses
 import math
@@ -15,9 +21,10 @@ import numpy as np
 from agnav_common.diagnostics import ERROR, OK, WARN, Diagnostics
 from agnav_common.frames import quaternion_from_euler
 from agnav_common.geodesy import LocalTangentPlane
+from agnav_common.input_guard import EventWindow, StreamClock, StreamClockSettings, covariance, finite
 from agnav_common.node_main import main_for
 from agnav_common.qos import LATCHED_QOS, PUBLISHER_QOS, SENSOR_QOS
-from agnav_common.stamps import StampGuard, to_sec, to_stamp
+from agnav_common.stamps import to_sec, to_stamp
 from agnav_common.tf import TfBuffer, TransformBroadcaster
 from agnav_msgs.msg import GnssStatus
 from geometry_msgs.msg import TwistWithCovarianceStamped
@@ -58,21 +65,31 @@ class InsNode(Node):
         initial_yaw = p("initial_yaw", 0.0)               # rad, REP-103 (CCW from east): best guess
         initial_yaw_sigma = p("initial_yaw_sigma", 0.0)   # rad; <= 0: unknown heading (in-motion alignment)
         self.gnss_timeout = p("gnss_timeout", 1.5)        # s without an accepted fix -> INS-only (outage) mode
-        self.default_fix_sigma = p("default_fix_sigma", 1.0)   # m, fixes without a covariance
-        self.default_vel_sigma = p("default_vel_sigma", 0.05)  # m/s, velocities without a covariance
+        self.imu_timeout = p("imu_timeout", 0.5)          # s without a usable IMU sample -> WARN
+        self.default_fix_sigma = p("default_fix_sigma", 1.0)   # m, fixes without a covariance (unknown / all zero)
+        self.default_vel_sigma = p("default_vel_sigma", 0.05)  # m/s, velocities without a covariance (all zero)
+        self.min_fix_sigma = p("min_fix_sigma", 0.01)     # m, smaller (zero) fix variances are raised to this
+        self.min_vel_sigma = p("min_vel_sigma", 0.01)     # m/s, the same for velocities
+        imu_jump, gnss_jump = p("imu_max_jump", 0.5), p("gnss_max_jump", 1.0)  # s, lone larger steps rejected
+        self.events = EventWindow(p("diagnostic_window", 5.0))   # s of rejections the diagnostics describe
         self.settings = declare_ins_settings(self, InsEkfSettings())
         self.settings.initial_heading = math.pi / 2 - initial_yaw
         self.settings.initial_heading_sigma = initial_yaw_sigma if initial_yaw_sigma > 0 else math.inf
+        # GNSS epochs are checked against the IMU time: at most `max_gnss_lead` ahead, within the history behind
+        gnss_clock = dict(max_jump=gnss_jump, max_lag=self.settings.history, max_lead=self.settings.max_gnss_lead)
+        self.clocks = {"imu": StreamClock(StreamClockSettings(max_jump=imu_jump)),
+                       "fix": StreamClock(StreamClockSettings(**gnss_clock)),
+                       "vel": StreamClock(StreamClockSettings(**gnss_clock))}
         self.ekf = None
         self.mounts = None
         self.plane = None
         self.pending_fix = None
         self.velocities = []
         self.fix_type = None
+        self.imu_time = None                # node time of the last usable IMU sample
         self.rate_var = np.zeros(3)
-        self.stamp_guards = {k: StampGuard() for k in ("imu", "fix", "vel")}
-        self.counters = {"imu": 0, "gnss": 0, "published": 0, "missing_tf": 0, "no_accel": 0, "no_fix": 0,
-                         "bad_fix": 0, "output_nan": 0}
+        self.filter_seen = {}               # EKF rejection counts already turned into events
+        self.counters = {"imu": 0, "gnss": 0, "published": 0, "missing_tf": 0, "no_accel": 0}
         self.tf = TfBuffer(self)
         self.tf_out = TransformBroadcaster(self)
         self.odom_pub = self.create_publisher(Odometry, "/odometry/filtered", PUBLISHER_QOS)
@@ -84,9 +101,9 @@ class InsNode(Node):
         self.create_subscription(GnssStatus, "/gnss/status", self.on_status, SENSOR_QOS)
         if len(datum) >= 3:
             self.set_datum(*datum[:3])
-        diag = Diagnostics(self, "ins")
-        diag.add("inputs", self.check_inputs)
-        diag.add("filter", self.check_filter)
+        self.diag = Diagnostics(self, "ins")
+        self.diag.add("inputs", self.check_inputs)
+        self.diag.add("filter", self.check_filter)
 
     # ---- mounts and datum ---------------------------------------------------------------------------
     def ready(self):
@@ -107,21 +124,61 @@ class InsNode(Node):
         self.plane = LocalTangentPlane(float(lat), float(lon), float(alt))
         self.datum_pub.publish(map_datum_message(lat, lon, alt, self.frames["map"], self.get_clock().now().to_msg()))
 
+    # ---- input guards -------------------------------------------------------------------------------
+    def now(self):
+        """Node time [s] (the bag's /clock in a replay): the time base of the diagnostic windows."""
+        return self.get_clock().now().nanoseconds * 1e-9
+
+    def event(self, name):
+        self.events.add(name, self.now())
+
+    def imu_clock(self):
+        """The IMU time GNSS stamps are checked against (None before the first IMU sample)."""
+        return self.clocks["imu"].last
+
+    def checked_cov(self, stream, cov, default_sigma, min_sigma):
+        """A fused input's 3x3 covariance: symmetric PSD, variances floored; None (rejected) for NaN, negative or
+        indefinite ones; all zero = not given: the default. Every problem is an event on the diagnostics."""
+        cov = np.asarray(cov, dtype=float).reshape(3, 3)
+        if finite(cov) and not cov.any():
+            self.event(f"{stream}_zero_covariance")
+            return np.eye(3) * default_sigma ** 2
+        checked, problem = covariance(cov, min_sigma ** 2)
+        if problem:
+            self.event(f"{stream}_{problem}")
+        return checked
+
+    def filter_events(self):
+        """EKF rejections since the last call -> events: NaN samples, stale epochs (inputs), gating (filter_*)."""
+        for name, count in self.ekf.stats["rejected"].items():
+            for _ in range(count - self.filter_seen.get(name, 0)):     # input-level ones keep their name
+                self.event(name if name.startswith(("imu_", "gnss_")) else f"filter_{name}")
+            self.filter_seen[name] = count
+
     # ---- inputs ---------------------------------------------------------------------------------------
     def on_imu(self, msg):
         if msg.linear_acceleration_covariance[0] == -1.0:
             self.counters["no_accel"] += 1
             return
         t = to_sec(msg.header.stamp)
-        if self.stamp_guards["imu"].check(t) is not None or not self.ready():
+        reason = self.clocks["imu"].check(t)
+        if reason is not None:
+            self.event(f"imu_{reason}")
+            return
+        if not self.ready():
             return
         self.counters["imu"] += 1
         r = self.mounts.imu_to_frd
         w, a = msg.angular_velocity, msg.linear_acceleration
-        if self.ekf.add_imu(t, r @ np.array([w.x, w.y, w.z]), r @ np.array([a.x, a.y, a.z])) is not None:
+        reason = self.ekf.add_imu(t, r @ np.array([w.x, w.y, w.z]), r @ np.array([a.x, a.y, a.z]))
+        self.filter_events()
+        if reason is not None:
             return
+        self.imu_time = self.now()
+        if self.ekf.last_gap > 0.0:
+            self.event("imu_gap_bridged")
         var = np.diag(np.array(msg.angular_velocity_covariance).reshape(3, 3))
-        if np.all(var >= 0) and np.all(np.isfinite(var)):
+        if finite(var) and np.all(var >= 0):
             self.rate_var = np.diag(r @ np.diag(var) @ r.T)
         if self.pending_fix is not None and t - self.pending_fix.t > self.settings.history / 2:
             self.submit(None)           # its velocity never came: fuse the position alone
@@ -132,34 +189,42 @@ class InsNode(Node):
 
     def on_vel(self, msg):
         t = to_sec(msg.header.stamp)
-        if self.stamp_guards["vel"].check(t) is not None:
-            return
         v = msg.twist.twist.linear
-        cov = np.array(msg.twist.covariance).reshape(6, 6)[:3, :3]
-        if not np.all(np.diag(cov) > 0):
-            cov = np.eye(3) * self.default_vel_sigma ** 2
-        self.velocities = (self.velocities + [(t, np.array([v.x, v.y, v.z]), cov)])[-10:]
+        vel = np.array([v.x, v.y, v.z])
+        reason = self.clocks["vel"].check(t, self.imu_clock()) or (None if finite(vel) else "nan")
+        if reason is not None:
+            self.event(f"vel_{reason}")
+            return
+        cov = self.checked_cov("vel", np.array(msg.twist.covariance).reshape(6, 6)[:3, :3], self.default_vel_sigma,
+                               self.min_vel_sigma)
+        if cov is None:
+            return
+        self.velocities = (self.velocities + [(t, vel, cov)])[-10:]
         if self.pending_fix is not None and abs(self.pending_fix.t - t) <= EPOCH_MATCH_S:
             self.submit(self.velocities[-1])
 
     def on_fix(self, msg):
         t = to_sec(msg.header.stamp)
-        if msg.status.status < NavSatStatus.STATUS_FIX:
-            self.counters["no_fix"] += 1
+        reason = self.clocks["fix"].check(t, self.imu_clock())    # a NO_FIX message still marks the stream time
+        if reason is None and (msg.status.status < NavSatStatus.STATUS_FIX or msg.latitude == msg.longitude == 0.0):
+            reason = "no_fix"           # never a position, never the datum
+        if reason is None and not finite(msg.latitude, msg.longitude, msg.altitude):
+            reason = "nan"
+        if reason is not None:
+            self.event(f"fix_{reason}")
             return
-        values = [msg.latitude, msg.longitude, msg.altitude, *msg.position_covariance]
-        if not np.all(np.isfinite(values)):
-            self.counters["bad_fix"] += 1
-            return
-        if self.stamp_guards["fix"].check(t) is not None or not self.ready():
+        cov = np.array(msg.position_covariance).reshape(3, 3)
+        if msg.position_covariance_type == NavSatFix.COVARIANCE_TYPE_UNKNOWN:
+            cov = np.eye(3) * self.default_fix_sigma ** 2
+        elif msg.position_covariance_type == NavSatFix.COVARIANCE_TYPE_DIAGONAL_KNOWN:
+            cov = np.diag(np.diag(cov))
+        cov = self.checked_cov("fix", cov, self.default_fix_sigma, self.min_fix_sigma)
+        if cov is None or not self.ready():
             return
         if self.plane is None:
             self.set_datum(msg.latitude, msg.longitude, msg.altitude)
         if self.pending_fix is not None:
             self.submit(None)
-        cov = np.array(msg.position_covariance).reshape(3, 3)
-        if msg.position_covariance_type == NavSatFix.COVARIANCE_TYPE_UNKNOWN or not np.all(np.diag(cov) > 0):
-            cov = np.eye(3) * self.default_fix_sigma ** 2
         self.pending_fix = GnssSample(t, math.radians(msg.latitude), math.radians(msg.longitude), msg.altitude, cov,
                                       fix_type=self.fix_type if self.fix_type is not None else -1)
         vel = next((v for v in self.velocities if abs(v[0] - t) <= EPOCH_MATCH_S), None)
@@ -173,6 +238,7 @@ class InsNode(Node):
             g.vel_enu, g.vel_cov_enu = vel[1], vel[2]
         self.counters["gnss"] += 1
         self.ekf.add_gnss(g)
+        self.filter_events()
 
     # ---- outputs ----------------------------------------------------------------------------------------
     def publish(self):
@@ -180,8 +246,8 @@ class InsNode(Node):
         if sol is None or self.plane is None:
             return
         s = base_link_state(sol, self.mounts, self.plane, self.rate_var)
-        if not s.finite():
-            self.counters["output_nan"] += 1
+        if not (s.finite() and positive_definite(s.pose_cov) and positive_definite(s.twist_cov)):
+            self.event("output_invalid")
             return
         stamp = to_stamp(s.t)
         quat = quaternion_from_euler(*s.rpy)
@@ -212,17 +278,23 @@ class InsNode(Node):
         self.counters["published"] += 1
 
     def check_inputs(self):
-        c = dict(self.counters, **{f"{k}_stamp_rejected": g.rejected for k, g in self.stamp_guards.items()})
-        if self.ekf is not None:
-            c.update({f"rejected_{k}": v for k, v in self.ekf.stats["rejected"].items()})
+        """Stream health now: rejections of the last `diagnostic_window` s (totals as values), IMU age."""
+        now = self.now()
+        recent = {k: v for k, v in self.events.recent(now).items() if not k.startswith("filter_")}
+        values = dict(self.counters, **{f"total_{k}": v for k, v in self.events.totals.items()},
+                      **{f"recent_{k}": v for k, v in recent.items()})
         if self.counters["no_accel"]:
             return ERROR, "/imu/data_raw has no accelerometers (linear_acceleration_covariance[0] == -1): " \
-                          "the INS needs them", c
+                          "the INS needs them", values
         if self.ekf is None:
-            return WARN, f"waiting for TF {self.frames['base']}->{self.frames['imu']}/{self.frames['gnss']}", c
-        bad = sum(v for k, v in c.items() if k.endswith("rejected") or k.startswith("rejected_")
-                  or k in ("no_fix", "bad_fix", "output_nan"))
-        return (WARN if bad else OK), f"{bad} inputs rejected", c
+            return WARN, f"waiting for TF {self.frames['base']}->{self.frames['imu']}/{self.frames['gnss']}", values
+        problems = [f"{sum(recent.values())} inputs rejected in the last {self.events.window:g} s ("
+                    + ", ".join(f"{k} {v}" for k, v in sorted(recent.items())) + ")"] if recent else []
+        age = now - self.imu_time if self.imu_time is not None else math.inf
+        values["imu_age_s"] = age
+        if age > self.imu_timeout:
+            problems.insert(0, f"no usable IMU sample for {age:.1f} s")
+        return (WARN if problems else OK), "; ".join(problems) or "inputs ok", values
 
     def check_filter(self):
         if self.ekf is None:
@@ -232,8 +304,25 @@ class InsNode(Node):
         age = h.get("gnss_age_s", math.inf)
         h["mode"] = "uninitialized" if self.ekf.mech is None else (
             "ins_only_outage" if age > self.gnss_timeout else "gnss_aided")
-        level = OK if h["alignment"] == "aligned" and h["mode"] == "gnss_aided" else WARN
-        return level, f"{h['alignment']}, {h['mode']}", h
+        recent = {k[len("filter_"):]: v for k, v in self.events.recent(self.now()).items() if k.startswith("filter_")}
+        h.update({f"recent_rejected_{k}": v for k, v in recent.items()})
+        level = OK if h["alignment"] == "aligned" and h["mode"] == "gnss_aided" and not recent else WARN
+        message = f"{h['alignment']}, {h['mode']}"
+        if recent:
+            message += f", rejected in the last {self.events.window:g} s: " + \
+                ", ".join(f"{k} {v}" for k, v in sorted(recent.items()))
+        return level, message, h
+
+
+def positive_definite(cov):
+    """True for a symmetric positive-definite matrix (published covariances must be)."""
+    if not np.array_equal(cov, cov.T):
+        return False
+    try:
+        np.linalg.cholesky(cov)
+    except np.linalg.LinAlgError:
+        return False
+    return True
 
 
 main = main_for(InsNode)

@@ -1,7 +1,7 @@
 """GNSS/INS loosely coupled extended Kalman filter (SPEC §7.6, §7.9–7.11, report 5-9-1 … 5-9-8).
 
 `InsEkf` owns the mechanization, the error covariance and the guards: IMU-rate propagation
-(Euler F, Q = U dt), in-motion alignment from an unknown heading (γ/β), GNSS latency compensation
+(Euler F, Q = U dt), IMU gaps bridged in sub-steps with unknown-motion noise, in-motion alignment from an unknown heading (γ/β), GNSS latency compensation
 (solution history, fixes applied against the INS state at their epoch), chi-square innovation
 gating, Joseph-form update with closed-loop correction, outage coasting and health statistics.
 """
@@ -18,6 +18,7 @@ from .measurements import ENU_TO_NED, GnssPosition, GnssVelocity, Snapshot, c_ax
 from .mechanization import T, InsState, Mechanization, c_cbar_ned, roll_pitch_from_accel
 
 UNINITIALIZED, ALIGNING, ALIGNED = "uninitialized", "aligning", "aligned"
+MAX_GAP_STEPS = 1000        # sub-steps bridging one IMU gap at most
 
 
 @dataclass
@@ -38,7 +39,9 @@ class InsEkfSettings:
     gate_probability: float = 0.9999           # chi-square innovation gate
     reinit_after: float = 10.0                 # reinitialise after this long of rejected GNSS [s]
     history: float = 2.0                       # latency compensation window [s]
-    max_imu_gap: float = 0.1                   # larger IMU gaps are not integrated [s]
+    gap_accel_sigma: float = 1.0               # unknown acceleration while IMU samples are missing [m/s^2]
+    gap_rate_sigma: float = 0.05               # unknown rate (interpolation error) over an IMU gap [rad/s]
+    max_gnss_lead: float = 5.0                 # GNSS epochs further ahead of the IMU time are rejected [s]
     covariance_interval: float = 0.05          # P propagated at this period (Φ from the latest F) [s];
                                                # 0 = every IMU sample; always brought current before updates
 
@@ -74,6 +77,10 @@ class InsEkf:
         self.models = [GnssPosition(self.s.lever_gnss_frd), GnssVelocity(self.s.lever_gnss_frd)]
         self.t = None
         self.omega_b = np.zeros(3)
+        self.last_gap = 0.0               # s of missing IMU samples bridged by the last add_imu
+        self._dt = None                   # nominal IMU period (running mean of regular intervals)
+        self._last_imu = None             # (gyro, accel) of the last accepted sample
+        self._gap_var = None              # unknown-motion variance of a gap, added at the next P propagation
         self._cov_dt = 0.0
         self._f = None
         self._level = deque()
@@ -84,7 +91,7 @@ class InsEkf:
         self._last_gnss_t = None
         self._last_accept_t = None
         self._first_reject_t = None
-        self.stats = {"imu": 0, "gnss": 0, "accepted": {}, "rejected": {}, "nis": {}}
+        self.stats = {"imu": 0, "gnss": 0, "accepted": {}, "rejected": {}, "bridged": {}, "nis": {}}
 
     # ----------------------------------------------------------------- public API
     @property
@@ -102,25 +109,43 @@ class InsEkf:
         return math.sqrt(max(self.p[em.GAMMA, em.GAMMA], 0.0)) if self.p is not None else math.inf
 
     def add_imu(self, t, gyro_frd, accel_frd):
-        """One IMU sample (body FRD, rad/s and m/s^2) stamped at t [s]; returns a rejection reason or None."""
+        """One IMU sample (body FRD, rad/s and m/s^2) stamped at t [s]; returns a rejection reason or None.
+
+        Missing samples (an interval over 1.5 nominal periods) are bridged, never skipped: the rates and specific
+        force are interpolated across the gap in nominal sub-steps (GNSS epochs inside it are applied on the way)
+        and the covariance grows by an unknown acceleration and rate over the gap length (`gap_*_sigma`)."""
         gyro, accel = np.asarray(gyro_frd, dtype=float), np.asarray(accel_frd, dtype=float)
         if not (math.isfinite(t) and np.all(np.isfinite(gyro)) and np.all(np.isfinite(accel))):
             return self._reject("imu_nan")
         if self.t is not None and t <= self.t:
             return self._reject("imu_stamp")
-        dt = None if self.t is None else t - self.t
-        self.t = t
+        t0, dt = self.t, None if self.t is None else t - self.t
+        self.last_gap = 0.0
         self.stats["imu"] += 1
         self._level.append((t, accel))
         while self._level[0][0] < t - self.s.level_window:
             self._level.popleft()
+        nominal = self._nominal_dt(dt)
         if self.mech is None:
+            self.t, self._last_imu = t, (gyro, accel)
             self._process_pending()
             return None
-        if dt > self.s.max_imu_gap:
-            return self._reject("imu_gap")
-        self._propagate(gyro, accel, dt)
-        self._process_pending()
+        n = 1 if dt <= 1.5 * nominal else min(math.ceil(dt / nominal - 1e-6), MAX_GAP_STEPS)
+        if n > 1:
+            self.last_gap = dt - nominal
+            self._stat("bridged", "imu_gap")
+            gap_psd = np.zeros(self.n_states)
+            gap_psd[list(em.V3)] = self.s.gap_accel_sigma ** 2 * self.last_gap
+            gap_psd[[em.TX, em.TY, em.GAMMA]] = self.s.gap_rate_sigma ** 2 * self.last_gap
+        g0, a0 = self._last_imu
+        for k in range(1, n + 1):
+            w = k / n
+            self.t = t if k == n else t0 + w * dt
+            if n > 1:
+                self._gap_var = (0.0 if self._gap_var is None else self._gap_var) + gap_psd * dt / n
+            self._propagate(g0 + w * (gyro - g0), a0 + w * (accel - a0), dt / n)
+            self._process_pending()
+        self._last_imu = (gyro, accel)
         return None
 
     def add_gnss(self, g):
@@ -130,7 +155,10 @@ class InsEkf:
             return self._reject("gnss_nan")
         if self._last_gnss_t is not None and g.t <= self._last_gnss_t:
             return self._reject("gnss_stamp")
-        if g.vel_enu is not None and not (np.all(np.isfinite(g.vel_enu)) and np.all(np.isfinite(g.vel_cov_enu))):
+        if self.t is not None and g.t > self.t + self.s.max_gnss_lead:
+            return self._reject("gnss_future")         # would shut out every later epoch
+        if g.vel_enu is not None and not (np.all(np.isfinite(g.vel_enu)) and np.all(np.isfinite(g.vel_cov_enu))
+                                          and np.all(np.diag(g.vel_cov_enu) > 0)):
             g.vel_enu = None
         self._last_gnss_t = g.t
         self.stats["gnss"] += 1
@@ -172,7 +200,7 @@ class InsEkf:
         out = {"alignment": self.alignment, "imu_samples": self.stats["imu"], "gnss_epochs": self.stats["gnss"]}
         for name, (n, total) in self.stats["nis"].items():
             out[f"nis_mean_{name}"] = total / n
-        for kind in ("accepted", "rejected"):
+        for kind in ("accepted", "rejected", "bridged"):
             for name, count in self.stats[kind].items():
                 out[f"{kind}_{name}"] = count
         if self.p is not None:
@@ -186,9 +214,22 @@ class InsEkf:
             self._gates[dof] = float(chi2.ppf(self.s.gate_probability, dof))
         return self._gates[dof]
 
+    def _stat(self, kind, name):
+        counts = self.stats[kind]
+        counts[name] = counts.get(name, 0) + 1
+
     def _reject(self, reason):
-        self.stats["rejected"][reason] = self.stats["rejected"].get(reason, 0) + 1
+        self._stat("rejected", reason)
         return reason
+
+    def _nominal_dt(self, dt):
+        """Nominal IMU period: running mean of the regular intervals (gaps excluded)."""
+        if dt is not None:
+            if self._dt is None:
+                self._dt = dt
+            elif dt <= 1.5 * self._dt:
+                self._dt += 0.05 * (dt - self._dt)
+        return self._dt
 
     def _initialize(self, g, heading, heading_var):
         """Level from the accelerometers, position/velocity from the fix, heading from the guess."""
@@ -252,6 +293,9 @@ class InsEkf:
         phi[:em.N_STATES, :em.N_STATES] += f * self._cov_dt
         self.p = phi @ self.p @ phi.T
         self.p[np.diag_indices_from(self.p)] += self.psd * self._cov_dt
+        if self._gap_var is not None:
+            self.p[np.diag_indices_from(self.p)] += self._gap_var
+            self._gap_var = None
         self._cov_dt = 0.0
 
     def _snapshot(self):
@@ -309,7 +353,7 @@ class InsEkf:
                 continue
             n, total = self.stats["nis"].get(lin.name, (0, 0.0))
             self.stats["nis"][lin.name] = (n + 1, total + nis)
-            self.stats["accepted"][lin.name] = self.stats["accepted"].get(lin.name, 0) + 1
+            self._stat("accepted", lin.name)
             accepted.append(lin)
         if not accepted:
             self._first_reject_t = self._first_reject_t if self._first_reject_t is not None else g.t

@@ -12,6 +12,7 @@ from agnav_common.frames import wrap_angle
 
 from .lever_arm import imu_to_point_position
 from .measurements import ENU_TO_NED
+from .mechanization import skew
 
 FLU_TO_FRD = np.diag([1.0, -1.0, -1.0])
 
@@ -56,11 +57,19 @@ def base_link_state(sol, mounts, plane, rate_var=(0.0, 0.0, 0.0)):
     position = np.array(plane.to_enu(math.degrees(lat), math.degrees(lon), h), dtype=float)
     r_body_enu = ENU_TO_NED.T @ sol.c_b_ned @ FLU_TO_FRD          # base_link FLU -> ENU
     v_ned = sol.v_ned + sol.c_b_ned @ np.cross(sol.omega_b, -mounts.lever_imu_frd)
+    # the mount lever turned by an attitude error moves base_link: δp = φ x (C l), φ ~ N(0, diag(att_var))
+    arm = skew(sol.c_b_ned @ -mounts.lever_imu_frd)
     pose_cov = np.zeros((6, 6))
-    pose_cov[:3, :3] = sol.pos_cov_enu
+    pose_cov[:3, :3] = sol.pos_cov_enu + ENU_TO_NED.T @ arm @ np.diag(sol.att_var) @ arm.T @ ENU_TO_NED
     pose_cov[3:, 3:] = np.diag(sol.att_var)
     twist_cov = np.zeros((6, 6))
     twist_cov[:3, :3] = r_body_enu.T @ sol.vel_cov_enu @ r_body_enu
     twist_cov[3:, 3:] = np.diag(sol.gyro_bias_var + np.asarray(rate_var, dtype=float))
     return BaseLinkState(sol.t, position, np.array([sol.roll, -sol.pitch, wrap_angle(math.pi / 2 - sol.heading)]),
-                         pose_cov, r_body_enu.T @ (ENU_TO_NED.T @ v_ned), FLU_TO_FRD @ sol.omega_b, twist_cov)
+                         symmetric(pose_cov), r_body_enu.T @ (ENU_TO_NED.T @ v_ned), FLU_TO_FRD @ sol.omega_b,
+                         symmetric(twist_cov))
+
+
+def symmetric(cov):
+    """Exactly symmetric copy (rotated covariances are only symmetric up to rounding)."""
+    return (cov + cov.T) / 2

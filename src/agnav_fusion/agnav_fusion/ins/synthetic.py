@@ -192,9 +192,9 @@ class RunErrors:
     pos_sigma: np.ndarray  # horizontal 1-sigma (sqrt of the trace) [m]
 
 
-def run_ins(ekf, traj, gyro, accel, gnss, outages=(), every=10):
-    """Feed IMU and GNSS (in arrival order, dropping epochs inside `outages` [(t0, t1)]) to ekf;
-    errors are sampled every `every` IMU samples."""
+def run_ins(ekf, traj, gyro, accel, gnss, outages=(), every=10, imu_gaps=()):
+    """Feed IMU and GNSS (in arrival order, dropping epochs inside `outages` [(t0, t1)] and IMU samples inside
+    `imu_gaps` [(t0, t1)]) to ekf; errors are sampled every `every` IMU samples."""
     n = len(gyro)
     rows = []
     gi = 0
@@ -206,6 +206,8 @@ def run_ins(ekf, traj, gyro, accel, gnss, outages=(), every=10):
             if not any(t0 <= sample.t < t1 for t0, t1 in outages):
                 ekf.add_gnss(sample)
             gi += 1
+        if any(t0 <= t < t1 for t0, t1 in imu_gaps):
+            continue
         ekf.add_imu(t, gyro[k], accel[k])
         sol = ekf.solution() if k % every == 0 else None
         if sol is None:
