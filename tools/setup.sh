@@ -7,6 +7,8 @@ ROOT=$PWD
 VENV=$ROOT/.venv
 STAMPS=$ROOT/build/stamps
 mkdir -p "$STAMPS"
+# shellcheck source=tools/ros_env.sh
+source tools/ros_env.sh
 
 pip_q() {  # pip_q ARGS... : quiet pip whose output is shown only on failure
   local log; log=$(mktemp)
@@ -37,12 +39,7 @@ fi
 if ! fresh requirements requirements.txt; then
   echo "[setup] installing pinned requirements"
   pip_q install -r requirements.txt
-  # The wheels' CMake exports name the build machine's interpreter: point them at this venv.
-  PYINC=$("$VENV/bin/python" -c "import sysconfig; print(sysconfig.get_paths()['include'])")
-  NPINC=$("$VENV/bin/python" -c "import numpy; print(numpy.get_include())")
-  { grep -rl "/opt/python/cp311-cp311" "$VENV/share" --include=*.cmake || true; } | xargs -r sed -i \
-    -e "s#/opt/python/cp311-cp311/lib/python3.11/site-packages/numpy/_core/include#$NPINC#g" \
-    -e "s#/opt/python/cp311-cp311/include/python3.11#$PYINC#g"
+  ros_env_fix_wheel_paths
   rm -f "$STAMPS"/iface-* "$STAMPS"/pkg-*
   stamp requirements requirements.txt
 fi
@@ -53,10 +50,9 @@ build_interfaces() {  # build_interfaces NAME SRC_DIR
   if fresh "iface-$name" "$src"/CMakeLists.txt "$src"/package.xml "$src"/msg/* $(ls "$src"/srv/* 2>/dev/null); then return; fi
   echo "[setup] building interfaces $name"
   rm -rf "build/$name"
-  AMENT_PREFIX_PATH=$VENV CMAKE_PREFIX_PATH=$VENV PATH=$VENV/bin:$PATH \
-    cmake -S "$src" -B "build/$name" -DCMAKE_INSTALL_PREFIX="$VENV" -DBUILD_TESTING=OFF \
+  ros_env_run cmake -S "$src" -B "build/$name" -DCMAKE_INSTALL_PREFIX="$VENV" -DBUILD_TESTING=OFF \
       -DPython3_EXECUTABLE="$VENV/bin/python" -DCMAKE_BUILD_TYPE=Release > "build/$name.log" 2>&1 \
-    && PATH=$VENV/bin:$PATH cmake --build "build/$name" -j 2 >> "build/$name.log" 2>&1 \
+    && ros_env_run cmake --build "build/$name" -j 2 >> "build/$name.log" 2>&1 \
     && cmake --install "build/$name" >> "build/$name.log" 2>&1 \
     || { tail -40 "build/$name.log" >&2; echo "[setup] build of $name failed (log: build/$name.log)" >&2; exit 1; }
   stamp "iface-$name" "$src"/CMakeLists.txt "$src"/package.xml "$src"/msg/* $(ls "$src"/srv/* 2>/dev/null)

@@ -1,0 +1,40 @@
+"""pytest fixtures shared by every agnav test folder (root test/ and each package's test/).
+
+A conftest.py imports them: `from agnav_common.testing import repo_root, ros  # noqa: F401`. Importing this
+module confines ROS to this host and to a private domain, before any test imports rclpy.
+"""
+import os
+from pathlib import Path
+
+import pytest
+
+os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
+os.environ.setdefault("ROS_DOMAIN_ID", str(101 + os.getpid() % 100))
+
+
+@pytest.fixture
+def ros():
+    """An initialised rclpy for one test, always shut down afterwards."""
+    import rclpy
+    rclpy.init()
+    try:
+        yield rclpy
+    finally:
+        rclpy.try_shutdown()
+
+
+def find_repo_root(start: Path) -> Path | None:
+    """The agnav checkout holding `start` (a folder with bags/ and src/agnav_bringup/), else None."""
+    for d in [start, *start.parents]:
+        if (d / "bags").is_dir() and (d / "src" / "agnav_bringup").is_dir():
+            return d
+    return None
+
+
+@pytest.fixture
+def repo_root(request):
+    """The checkout the test file lives in; the test is skipped in a workspace without the bundled bags."""
+    root = find_repo_root(Path(str(request.path)).resolve().parent)
+    if root is None:
+        pytest.skip("needs the agnav checkout (bags/)")
+    return root
