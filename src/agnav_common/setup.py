@@ -14,6 +14,7 @@ setup(
         ("share/" + package_name + "/config", glob("config/*.yaml")),
     ],
     install_requires=["setuptools"],
+    extras_require={"test": ["pytest"]},  # colcon test runs pytest (not unittest) for these
     zip_safe=True,
     maintainer="agnav developers",
     maintainer_email="dev@agnav.org",

@@ -1,5 +1,6 @@
-"""Small TF helper (tf2_ros is not on PyPI): static mounts lookup, broadcasters, transform builder."""
+"""Small TF helper (tf2_ros is not on PyPI): transform lookup along the TF tree, broadcasters, transform builder."""
 import numpy as np
+from scipy.spatial.transform import Rotation
 from geometry_msgs.msg import TransformStamped
 from tf2_msgs.msg import TFMessage
 
@@ -19,29 +20,65 @@ def make_transform(parent, child, stamp, xyz, quat):
 
 
 class TfBuffer:
-    """Latest transform per (parent, child) from /tf_static and /tf; direct edges only (sensor mounts)."""
+    """Latest transform per frame from /tf_static and /tf, composed along the tree (e.g. base_link -> mast ->
+    gnss_link from a URDF's robot_state_publisher); stamps are ignored (latest value of every edge)."""
 
-    def __init__(self, node):
-        self._edges = {}
-        node.create_subscription(TFMessage, "/tf_static", self._on_tf, LATCHED_QOS)
-        node.create_subscription(TFMessage, "/tf", self._on_tf, 100)
+    def __init__(self, node=None):
+        self._parent = {}  # child frame -> (parent frame, xyz ndarray, quaternion xyzw ndarray)
+        if node is not None:
+            node.create_subscription(TFMessage, "/tf_static", self.add, LATCHED_QOS)
+            node.create_subscription(TFMessage, "/tf", self.add, 100)
 
-    def _on_tf(self, msg):
+    def add(self, msg):
+        """Takes a TFMessage (the /tf and /tf_static callback)."""
         for t in msg.transforms:
             tr, q = t.transform.translation, t.transform.rotation
-            self._edges[(t.header.frame_id, t.child_frame_id)] = (
-                np.array([tr.x, tr.y, tr.z]), np.array([q.x, q.y, q.z, q.w]))
+            self._parent[t.child_frame_id] = (
+                t.header.frame_id, np.array([tr.x, tr.y, tr.z]), np.array([q.x, q.y, q.z, q.w]))
+
+    def _to_ancestors(self, frame):
+        """{ancestor: (xyz, quat) of ancestor->frame} for frame itself (None: identity) and every frame above it."""
+        chain, xyz, quat = {frame: None}, None, None
+        while frame in self._parent:
+            parent, t, q = self._parent[frame]
+            if parent in chain:  # a cycle in bad TF data: stop climbing
+                break
+            xyz, quat = (t, q) if xyz is None else _compose((t, q), (xyz, quat))
+            chain[parent], frame = (xyz, quat), parent
+        return chain
 
     def lookup(self, parent, child):
-        """(xyz ndarray, quaternion xyzw ndarray) of parent->child, identity for equal frames, else None."""
+        """(xyz ndarray, quaternion xyzw ndarray) of parent->child (child's origin and axes in parent), through
+        any chain of edges in either direction; identity for equal frames; None while they are not connected."""
         if parent == child:
             return np.zeros(3), np.array([0.0, 0.0, 0.0, 1.0])
-        return self._edges.get((parent, child))
+        from_child = self._to_ancestors(child)
+        from_parent = self._to_ancestors(parent)
+        common = next((f for f in from_child if f in from_parent), None)
+        if common is None:
+            return None
+        up, down = from_parent[common], from_child[common]  # common->parent, common->child
+        if up is None:
+            return down
+        inv = _inverse(up)
+        return inv if down is None else _compose(inv, down)
 
     def lookup_mounts(self, parent, *children):
         """[lookup(parent, child) for each child], or None until every one of them is known."""
         found = [self.lookup(parent, child) for child in children]
         return None if any(f is None for f in found) else found
+
+
+def _compose(a, b):
+    """a∘b for transforms (xyz, quat xyzw): frame A->B then B->C gives A->C."""
+    ra = Rotation.from_quat(a[1])
+    return ra.apply(b[0]) + a[0], (ra * Rotation.from_quat(b[1])).as_quat()
+
+
+def _inverse(a):
+    """B->A from A->B."""
+    r = Rotation.from_quat(a[1]).inv()
+    return -r.apply(a[0]), r.as_quat()
 
 
 class StaticTransformPublisher:
