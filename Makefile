@@ -5,7 +5,7 @@ PY := $(VENV)/bin/python
 export ROS_AUTOMATIC_DISCOVERY_RANGE := LOCALHOST
 export ROS_LOG_DIR := $(CURDIR)/build/ros_log
 
-.PHONY: setup run test bench clean
+.PHONY: setup run test bench clean colcon
 
 setup:
 	@bash tools/setup.sh
@@ -15,6 +15,9 @@ run: setup
 
 test: setup
 	@bash tools/test.sh $(ARGS)
+
+colcon: setup  # build + colcon test every package of src/ in build/colcon_ws (README: colcon workspace)
+	@bash tools/colcon.sh $(ARGS)
 
 bench: setup
 	$(VENV)/bin/agnav bench $(or $(NAME),replay)

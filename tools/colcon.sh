@@ -25,6 +25,6 @@ cd "$WS"
 ros_env_run colcon build --symlink-install --event-handlers console_cohesion- "$@" \
   --cmake-args -DPython3_EXECUTABLE="$VENV/bin/python" -DBUILD_TESTING=OFF
 [ $test_too = 1 ] || exit 0
-ros_env_run colcon test --event-handlers console_cohesion- "$@" \
+ros_env_run colcon test --executor sequential --event-handlers console_cohesion- "$@" \
   --pytest-args -p no:cacheprovider --timeout=300 --timeout-method=thread
 ros_env_run colcon test-result --verbose
