@@ -28,8 +28,8 @@ from rclpy.parameter import Parameter  # noqa: E402
 
 from agnav_common.bagio import unfinished  # noqa: E402
 from agnav_common.frames import quaternion_from_euler  # noqa: E402
-from agnav_common.node_main import (PARENT_ENV, check_parameter_names, init_without_signal_handlers,  # noqa: E402
-                                    one_line, stop_on_signals)
+from agnav_common.node_main import (PARENT_ENV, ParameterNameError, check_parameter_names,  # noqa: E402
+                                    init_without_signal_handlers, one_line, stop_on_signals)
 from agnav_common.tf import StaticTransformPublisher, make_transform  # noqa: E402
 from agnav_drivers.bag_player_node import BagPlayerNode  # noqa: E402
 from agnav_drivers.bag_recorder_node import BagRecorderNode  # noqa: E402
@@ -158,23 +158,18 @@ def prepare_record(record):
     shutil.rmtree(record)
 
 
-def build_nodes(config, use_sim_time):
-    """The configured nodes in this process; each must declare every parameter the config gives it."""
-    nodes = []
+def build_nodes(config, use_sim_time, nodes):
+    """Append the configured nodes to `nodes` (the caller destroys them); each must declare every parameter
+    the config gives it. ConfigError (one line) for a node that cannot start."""
     for spec in config.nodes:
         try:
             overrides = [Parameter(k, value=v) for k, v in params_of(spec, use_sim_time).items()]
-            node = spec.node_class()(parameter_overrides=overrides, cli_args=spec.ros_args())
-        except Exception as exc:  # bad value (descriptor range, node check), unknown executable: one line
-            raise ConfigError(f"node '{spec.label}': {one_line(exc)}") from exc
-        nodes.append(node)
-        try:
-            check_parameter_names(node, spec.parameters)
-        except ValueError as exc:
-            for built in nodes:
-                built.destroy_node()
+            nodes.append(spec.node_class()(parameter_overrides=overrides, cli_args=spec.ros_args()))
+            check_parameter_names(nodes[-1], spec.parameters)
+        except ParameterNameError as exc:
             raise ConfigError(str(exc)) from None
-    return nodes
+        except Exception as exc:  # bad value (descriptor range, node check), unknown executable
+            raise ConfigError(f"node '{spec.label}': {one_line(exc)}") from exc
 
 
 def run(args):
@@ -196,7 +191,7 @@ def run(args):
         if args.processes:
             children = ChildProcesses(config.nodes, use_sim_time, workdir)
         else:
-            nodes = build_nodes(config, use_sim_time)
+            build_nodes(config, use_sim_time, nodes)
         static = static_transform_node(config)
         if static is not None:
             nodes.append(static)

@@ -86,11 +86,11 @@ def main_for(node_class):
     """
 
     def main(args=None):
-        init_without_signal_handlers(args)
-        stopping = stop_on_signals()
         node = None
         try:
             try:
+                init_without_signal_handlers(args)  # parses --ros-args (-p, --params-file)
+                stopping = stop_on_signals()
                 node = node_class()
                 # every parameter given (--params-file, -p) must be declared: a misspelling is an error
                 check_parameter_names(node, list(node._parameter_overrides))
