@@ -118,7 +118,7 @@ def replay(messages, parameters=(), publish_from=0.0):
         Parameter("use_sim_time", value=True), Parameter("publish_tf", value=False), *parameters])
     node.odom_pub, node.imu_pub, node.tf_out = _Capture(), _Capture(), _Capture()
     clock = node.get_clock()
-    callbacks = {"/tf_static": node.tf._on_tf, "/imu/data_raw": node.on_imu, "/gnss/fix": node.on_fix,
+    callbacks = {"/tf_static": node.tf.add, "/imu/data_raw": node.on_imu, "/gnss/fix": node.on_fix,
                  "/gnss/vel": node.on_vel, "/gnss/status": node.on_status}
     checks = {"inputs": node.check_inputs, "filter": node.check_filter}
     run = Run(node.odom_pub.msgs, node=node)

@@ -136,7 +136,7 @@ def test_ins_node_checks_gnss_stamps_values_and_covariances(ros):
     node = InsNode(parameter_overrides=[Parameter("use_sim_time", value=True)])
     clock = node.get_clock()
     clock.set_ros_time_override(Time(seconds=100))
-    node.tf._on_tf(TFMessage(transforms=[
+    node.tf.add(TFMessage(transforms=[
         make_transform("base_link", "imu_link", to_stamp(1.0), (0.0, 0.0, 0.5), (0.0, 0.0, 0.0, 1.0)),
         make_transform("base_link", "gnss_link", to_stamp(1.0), (0.0, 0.0, 2.0), (0.0, 0.0, 0.0, 1.0))]))
     imu = Imu()

@@ -40,7 +40,7 @@ class InsEkfSettings:
     reinit_after: float = 10.0                 # reinitialise after this long of rejected GNSS [s]
     history: float = 2.0                       # latency compensation window [s]
     gap_accel_sigma: float = 1.0               # unknown acceleration while IMU samples are missing [m/s^2]
-    gap_rate_sigma: float = 0.05               # unknown rate (interpolation error) over an IMU gap [rad/s]
+    gap_rate_sigma: float = 0.1                # unknown rate (e.g. a turn begun) over an IMU gap [rad/s]
     max_gnss_lead: float = 5.0                 # GNSS epochs further ahead of the IMU time are rejected [s]
     covariance_interval: float = 0.05          # P propagated at this period (Φ from the latest F) [s];
                                                # 0 = every IMU sample; always brought current before updates
