@@ -17,7 +17,7 @@ test: setup
 	@bash tools/test.sh $(ARGS)
 
 colcon: setup  # build + colcon test every package of src/ in build/colcon_ws (README: colcon workspace)
-	@bash tools/colcon.sh $(ARGS)
+	@bash tools/colcon.sh
 
 bench: setup
 	$(VENV)/bin/agnav bench $(or $(NAME),replay)
