@@ -3,7 +3,6 @@ engage after the thesis' 3 m manual drive."""
 import math
 
 import pytest
-from agnav_control.closed_loop import _feed_order
 from agnav_control.fusion_adapters import NsmEstimator
 from agnav_control.watchdog import WatchdogSettings
 from agnav_drivers.sim import TractorSimulator
@@ -12,10 +11,10 @@ from agnav_drivers.sim import TractorSimulator
 @pytest.mark.parametrize("seed", [1, 4])
 def test_cold_start_heading_holds_once_the_engage_gate_opens(seed):
     sim = TractorSimulator("rtk_straight_fast", seed)
-    est = NsmEstimator(sim.scenario)
+    est = NsmEstimator(sim)
     gate, opened_at, errors = WatchdogSettings().engage_yaw_std, None, []
     while sim.travelled < 20.0:
-        for kind, stamp, data in sorted(sim.step(None), key=_feed_order):
+        for kind, stamp, data in sorted(sim.step(None), key=est.feed_order):
             if kind != "truth":
                 est.feed(kind, stamp, data)
         pose = est.pose()

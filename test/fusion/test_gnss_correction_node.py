@@ -30,8 +30,9 @@ def run_node(ros, fixes, odom_stamps, status=None, cov=(1e-4, 0, 0, 0, 1e-4, 0, 
 
     from agnav_common.qos import SENSOR_QOS
     from agnav_fusion.gnss_correction_node import GnssCorrectionNode
+    from rclpy.parameter import Parameter
 
-    node = GnssCorrectionNode()
+    node = GnssCorrectionNode(parameter_overrides=[Parameter("attitude_wait", value=0.5)])
     src = ros.create_node("gnss_correction_test_source")
     got = []
     src.create_subscription(NavSatFix, "/gnss/fix_corrected", got.append, SENSOR_QOS)
@@ -59,7 +60,7 @@ def run_node(ros, fixes, odom_stamps, status=None, cov=(1e-4, 0, 0, 0, 1e-4, 0, 
         fix.position_covariance_type = NavSatFix.COVARIANCE_TYPE_KNOWN if cov_type is None else cov_type
         fix_pub.publish(fix)
         spin(ex, 5)
-    deadline = time.monotonic() + 0.8  # a fix waits up to max_attitude_age (0.5 s) for the attitude of its epoch
+    deadline = time.monotonic() + 0.8  # a fix waits up to attitude_wait (0.5 s) for the attitude of its epoch
     while time.monotonic() < deadline:
         spin(ex, 1)
     counts = dict(node.counts)

@@ -76,14 +76,14 @@ def run(settings: ClosedLoopSettings) -> ClosedLoopResult:
     line = GuidanceLine.from_points(route[0], route[-1]).offset(settings.line_offset)
     score_line = line
     rtk = sc.gnss is not None
-    est = NsmEstimator(sc, settings.tilt) if rtk else GdsVwaEstimator(sc, line.yaw, GdsSettings(speed=settings.gds_speed))
+    est = NsmEstimator(sim, settings.tilt) if rtk else GdsVwaEstimator(sc, line.yaw, GdsSettings(speed=settings.gds_speed))
     controller = _controller(settings, sc.vehicle)
     watchdog = Watchdog()
     period = 1.0 / settings.control_rate if settings.control_rate > 0 else 0.0
     command, next_control, last_control, start, engaged_at = None, -math.inf, None, None, math.nan
     rows, reason, gnss_errors = [], None, []
     while not sim.done:
-        for kind, stamp, data in sorted(sim.step(command if watchdog.engaged else None), key=_feed_order):
+        for kind, stamp, data in sorted(sim.step(command if watchdog.engaged else None), key=est.feed_order):
             if kind != "truth":
                 est.feed(kind, stamp, data)
             if kind == "gnss" and watchdog.engaged:
@@ -119,8 +119,3 @@ def run(settings: ClosedLoopSettings) -> ClosedLoopResult:
         raise RuntimeError(f"never engaged in {settings.scenario} ({watchdog.fault})")
     t, along, cross, est_cross, steer = (np.array(c) for c in zip(*rows))
     return ClosedLoopResult(t, along, cross, est_cross, steer, reason, np.array(gnss_errors), engaged_at)
-
-
-def _feed_order(sample):
-    """Within one tick: attitude, then the gyro sample that uses it, then the fixes and GDS headings it brackets."""
-    return {"incl": 0, "imu": 1}.get(sample[0], 2)

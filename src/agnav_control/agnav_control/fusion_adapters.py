@@ -1,19 +1,19 @@
-"""The fusion graph offline: TractorSimulator samples fed to agnav_fusion's public cores exactly as their nodes
-feed them (never truth), reduced to what the steering node reads. RTK runs: NavSensorModule (nav_sensor_module_node,
-SPEC §6.3) on /imu/data_raw + /inclinometer + /gnss/fix; GDS runs: the variable-target VWA (SPEC §3.6) on the gyro,
-fluxgate and attitude samples."""
+"""The fusion graph offline: TractorSimulator samples fed to agnav_fusion exactly as its nodes are fed (never truth),
+reduced to what the steering node reads. RTK runs: the simulator's ROS messages, in the order its bags and live
+node publish them, through nav_sensor_module_node's own NavigationPipeline (SPEC §6.3); GDS runs: the
+variable-target VWA (SPEC §3.6) on the gyro, fluxgate and attitude samples."""
 import math
 from dataclasses import dataclass, field
 
 import numpy as np
 from agnav_common.frames import rotation_matrix
-from agnav_common.geodesy import LocalTangentPlane
-from agnav_drivers.sim.messages import START_EPOCH_S
+from agnav_drivers.sim.messages import START_EPOCH_S, MessageFactory
 from agnav_fusion.attitude_kf import AttitudeKFSettings
 from agnav_fusion.gds_heading import magnetic_heading, tilt_compensate
 from agnav_fusion.gds_drift_lsm import Unwrapper
 from agnav_fusion.nav_ekf import NavEKFSettings
 from agnav_fusion.nav_sensor_module import NavSensorModule, NavSensorModuleSettings
+from agnav_fusion.pipeline import FrontEndSettings, NavigationPipeline
 from agnav_fusion.variance_weighted_average import VariableTargetVwa, VwaSettings
 
 from .watchdog import OdometrySample
@@ -45,27 +45,39 @@ def rtk_fog_settings(lever_flu, incl_lever_flu, imu_rate_hz: float) -> NavSensor
 
 
 class NsmEstimator:
-    """NavSensorModule fed like nav_sensor_module_node: gyro rotated into base_link, GNSS in the datum's ENU,
-    stamps on the simulator's wall epoch. tilt=False: a level attitude source and a yaw-only gyro (the lever arm
-    corrected at zero tilt: the thesis' uncorrected run)."""
+    """nav_sensor_module_node's pipeline fed the simulator's messages (MessageFactory: /imu/data_raw, /inclinometer,
+    /gnss/fix, /gnss/vel as published, mounts of its /tf_static). tilt=False: a level attitude source and a
+    yaw-only gyro (the lever arm corrected at zero tilt: the thesis' uncorrected run)."""
 
-    def __init__(self, scenario, tilt: bool = True, settings: NavSensorModuleSettings | None = None):
-        (gnss_xyz, _), (incl_xyz, _) = scenario.mounts["gnss_link"], scenario.mounts["inclinometer_link"]
-        self.nsm = NavSensorModule(settings or rtk_fog_settings(gnss_xyz, incl_xyz, scenario.imu_rate_hz))
-        self.imu_rotation = rotation_matrix(*scenario.mounts["imu_link"][1])
-        self.plane = LocalTangentPlane(*scenario.datum)
+    METHODS = {"/imu/data_raw": "on_imu", "/inclinometer": "on_inclinometer", "/gnss/fix": "on_fix",
+               "/gnss/vel": "on_velocity"}
+
+    def __init__(self, sim, tilt: bool = True, settings: NavSensorModuleSettings | None = None):
+        sc = sim.scenario
+        (gnss_xyz, _), (incl_xyz, _) = sc.mounts["gnss_link"], sc.mounts["inclinometer_link"]
+        self.nsm = NavSensorModule(settings or rtk_fog_settings(gnss_xyz, incl_xyz, sc.imu_rate_hz))
+        self.pipeline = NavigationPipeline(self.nsm, FrontEndSettings(datum=tuple(sc.datum)))  # = config steer
+        imu_rotation = rotation_matrix(*sc.mounts["imu_link"][1])
+        self.pipeline.set_mounts(imu_rotation, gnss_xyz, incl_xyz)
+        self.factory = MessageFactory(sim)
+        # the no-tilt run keeps only the gyro's yaw axis in base_link
+        self.gyro_filter = None if tilt else imu_rotation.T @ np.diag([0.0, 0.0, 1.0]) @ imu_rotation
         self.tilt = tilt
 
+    @staticmethod
+    def feed_order(sample):
+        """Samples of one tick in the simulator's order: its bags' and live node's publishing order."""
+        return 0
+
     def feed(self, kind: str, stamp: float, data: dict):
-        t = START_EPOCH_S + stamp
-        if kind == "incl":
-            self.nsm.inclinometer(t, *((data["roll"], data["pitch"]) if self.tilt else (0.0, 0.0)))
-        elif kind == "imu":
-            gyro = self.imu_rotation @ np.asarray(data["gyro"], dtype=float)
-            self.nsm.imu(t, gyro if self.tilt else gyro * (0.0, 0.0, 1.0))
-        elif kind == "gnss":
-            enu = self.plane.to_enu(data["lat"], data["lon"], data["alt"])
-            self.nsm.gnss(t, np.array(enu, dtype=float), np.asarray(data["cov"]), np.asarray(data["vel"]))
+        for topic, _, msg in self.factory.convert(kind, stamp, data):
+            if topic == "/inclinometer" and not self.tilt:
+                msg.roll = msg.pitch = 0.0
+            elif topic == "/imu/data_raw" and self.gyro_filter is not None:
+                w = msg.angular_velocity
+                w.x, w.y, w.z = (float(v) for v in self.gyro_filter @ np.array([w.x, w.y, w.z]))
+            if topic in self.METHODS:
+                getattr(self.pipeline, self.METHODS[topic])(msg)
 
     def pose(self) -> Pose | None:
         """The latest output once heading and position are valid (what the steering node engages on)."""
@@ -100,6 +112,11 @@ class GdsVwaEstimator:
         self.t = None
         self.yaw = None
         self.xy = np.zeros(2)
+
+    @staticmethod
+    def feed_order(sample):
+        """Within one tick: attitude, then the gyro sample that uses it, then the GDS headings it brackets."""
+        return {"incl": 0, "imu": 1}.get(sample[0], 2)
 
     def feed(self, kind: str, stamp: float, data: dict):
         if kind == "incl":

@@ -4,6 +4,7 @@ one nearest the fix epoch; the covariance adds the attitude variance projected t
 a position (status NO_FIX), with non-finite values or a covariance that cannot be believed, or stamped off the
 stream's time are not corrected and are counted; diagnostics report the last `diagnostic_window` s.
 """
+import bisect
 import math
 from collections import deque
 
@@ -30,8 +31,11 @@ class GnssCorrectionNode(Node):
         self.base_frame = p("base_frame", "base_link")
         self.gnss_frame = p("gnss_frame", "gnss_link")
         self.max_attitude_age = p("max_attitude_age", 0.5)  # s between fix epoch and nearest attitude
+        self.attitude_wait = p("attitude_wait", 2.0)  # s of node time a fix waits for the attitude of its epoch
         self.tf = TfBuffer(self)
-        self.attitudes = deque(maxlen=400)  # (t, heading, pitch nose-up, roll, variances) thesis conventions
+        # (t, heading, pitch nose-up, roll, variances) thesis conventions; 30 s at 100 Hz: a fix delivered seconds
+        # late (across processes DDS may resend a sample at its next heartbeat) still finds its epoch
+        self.attitudes = deque(maxlen=3000)
         self.clock = StreamClock()
         self.pending = []  # (t, fix, covariance, known, node arrival time) waiting for the attitude of their epoch
         self.create_timer(0.1, self.correct_pending)
@@ -86,16 +90,22 @@ class GnssCorrectionNode(Node):
 
     def correct_pending(self):
         """Correct the waiting fixes whose epoch the attitude stream has reached (the module's odometry may arrive
-        after the fix), or that have waited max_attitude_age of node time."""
+        after the fix), or that have waited attitude_wait s of node time."""
         latest = self.attitudes[-1][0] if self.attitudes else -math.inf
         while self.pending and (self.pending[0][0] <= latest
-                                or self.now() - self.pending[0][4] > self.max_attitude_age):
+                                or self.now() - self.pending[0][4] > self.attitude_wait):
             t, msg, cov, known, _ = self.pending.pop(0)
-            att = min(self.attitudes, key=lambda a: abs(a[0] - t), default=None)
+            att = self.nearest_attitude(t)
             if att is None or abs(att[0] - t) > self.max_attitude_age:
                 self.count("no_attitude")
             else:
                 self.correct(msg, cov, known, att)
+
+    def nearest_attitude(self, t):
+        if not self.attitudes:
+            return None
+        i = bisect.bisect_left(self.attitudes, t, key=lambda a: a[0])
+        return min((self.attitudes[j] for j in (i - 1, i) if 0 <= j < len(self.attitudes)), key=lambda a: abs(a[0] - t))
 
     def correct(self, msg, cov, known, att):
         mount = self.tf.lookup(self.base_frame, self.gnss_frame)

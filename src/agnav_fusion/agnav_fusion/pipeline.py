@@ -64,12 +64,14 @@ class NavigationPipeline:
         self.pending_fixes = []  # (t, enu, cov, deadline) waiting for their velocity
         self.recent_fixes = []   # (t, enu, cov) for the fix-difference velocity
         self.last_imu_t = 0.0
-        self.datum_args = tuple(float(v) for v in s.datum[:3]) if len(s.datum) >= 3 else None
+        self.configured_datum = len(s.datum) >= 3
+        if self.configured_datum:
+            self.plane = LocalTangentPlane(*(float(v) for v in s.datum[:3]))
 
     def start(self):
         """Announce a configured datum (call once the consumer of on_datum is ready)."""
-        if self.datum_args is not None and self.plane is None:
-            self._set_datum(*self.datum_args, stamp=None)
+        if self.configured_datum and self.on_datum:
+            self.on_datum(*self.settings.datum[:3], None)
 
     def set_mounts(self, imu_rotation, gnss_lever, incl_lever):
         """base_link <- imu_link rotation (3x3) and the base_link -> gnss_link / inclinometer_link translations."""

@@ -148,12 +148,12 @@ def sim_case(name, seed):
     """INS vs the thesis' navigation sensor module (both estimators) on one simulator run: accuracy over the window
     where the INS is aligned and the module's heading is valid, alignment times, outage drifts, cost."""
     from agnav_drivers.sim import simulate
-    from agnav_bringup.bench.thesis import run_module
-    run = simulate(name, seed=seed)
+    from agnav_bringup.bench.thesis import UNCALIBRATED, run_module
+    run = simulate(name, seed=seed, messages=True)
     tr = run.truth
     moving = float(tr.t[np.argmax(tr.speed > 0.1)])
     ests = {"ins": run_ins_sim(run)}
-    ests.update({f"module_{e}": run_module(run, e) for e in MODULE_ESTIMATORS})
+    ests.update({f"module_{e}": run_module(run, e, **UNCALIBRATED) for e in MODULE_ESTIMATORS})
     aligned = {k: align_time(tr.t, np.where(v["valid"], wrap_angle(np.nan_to_num(v["yaw"]) - tr.yaw), math.pi),
                              moving) for k, v in ests.items()}
     t_ins = aligned["ins"] if math.isfinite(aligned["ins"]) else tr.t[-1] / 2
@@ -165,7 +165,7 @@ def sim_case(name, seed):
         outage = (SIM_OUTAGE_START, SIM_OUTAGE_START + seconds)
         row["ins"][f"drift_{seconds}s_m"] = outage_drift(run, run_ins_sim(run, outage), outage)
         for e in MODULE_ESTIMATORS:
-            row[f"module_{e}"][f"drift_{seconds}s_m"] = outage_drift(run, run_module(run, e, outage), outage)
+            row[f"module_{e}"][f"drift_{seconds}s_m"] = outage_drift(run, run_module(run, e, outage, **UNCALIBRATED), outage)
     h = ests["ins"]["health"]
     row["ins"].update(nis_position=h.get("nis_mean_position"), nis_velocity=h.get("nis_mean_velocity"))
     return row

@@ -6,6 +6,7 @@ reproduced on simulated runs with the ROS-free fusion cores, against open AHRS a
 Every cell is the mean over the seeds (per-seed values in the JSON rows and the docs).
 """
 import argparse
+import dataclasses
 import json
 import math
 import time
@@ -14,14 +15,17 @@ from pathlib import Path
 
 import numpy as np
 
+from agnav_bringup import offline
 from agnav_bringup.bench import thesis_gds
+from agnav_bringup.graph_config import load_config
 from agnav_common.frames import heading_from_yaw, rotation_matrix, wrap_angle
 from agnav_common.geodesy import LocalTangentPlane
+from agnav_common.parameters import leaves
+from agnav_drivers.sim.messages import START_EPOCH_S
 from agnav_drivers.sim.scenarios import STARFIRE
 from agnav_fusion import tilt_correction
 from agnav_fusion.gnss_heading_lsm import GnssGyroHeading
 from agnav_fusion.nav_ekf import NavEKFSettings
-from agnav_fusion.nav_sensor_module import NavSensorModule, NavSensorModuleSettings
 from agnav_fusion.tilt_calibration import TiltCalibration
 
 DEG = 180.0 / math.pi
@@ -35,7 +39,8 @@ TABLE_54 = {  # SPEC §6.4 Table 5.4: (quantity, sensor) -> asphalt, grass slope
 }
 SURFACES = ("asphalt_loop", "grass_slope", "rough_road")
 UNITS = {"roll": "deg", "pitch": "deg", "heading": "deg", "position": "cm"}
-T0 = 1000.0  # s added to simulation time on replay: a zero stamp means "unset" on the wire and is rejected
+NSM = load_config("nsm")  # the shipped graph whose navigation node every module row runs
+UNCALIBRATED = {"incl_zero_deg": (0.0, 0.0)}
 DOCS = Path(__file__).resolve().parents[4] / "docs" / "benchmarks" / "thesis.md"
 
 
@@ -59,36 +64,47 @@ def sensor_streams(run):
     return gyro, enu
 
 
-def run_module(run, estimator="agnav", outage=None, arrival=None, prepare=None, **overrides):
-    """Replay a SimRun through NavSensorModule in arrival order (GNSS at `arrival`, default t_arrival); prepare(nsm)
-    runs before the replay, overrides set NavSensorModuleSettings fields. Returns arrays at IMU epochs and cost."""
-    settings = NavSensorModuleSettings(estimator=estimator, lever_flu=tuple(run.mounts["gnss_link"][0]),
-                                       incl_lever_flu=tuple(run.mounts["inclinometer_link"][0]), **overrides)
-    nsm = NavSensorModule(settings)
+def _parameters(overrides):
+    """run_module overrides (settings fields, nested settings dataclasses) as the node's flat parameters."""
+    params = {}
+    for name, value in overrides.items():
+        if dataclasses.is_dataclass(value):
+            params.update({n: v for n, v, _ in leaves(value, name + ".")})
+        else:
+            params[name] = [float(v) for v in value] if isinstance(value, (tuple, list, np.ndarray)) else value
+    return params
+
+
+def sim_rows(run, outage=None, latency=True):
+    """(topic, msg) of a run simulated with messages=True, in bag order; fixes of epochs in `outage` (s) dropped;
+    latency=False: GNSS messages at their epoch instead of their arrival."""
+    rows = []
+    for when, topic, msg in run.messages:
+        if topic.startswith("/gnss/"):
+            epoch = msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9 - START_EPOCH_S
+            if outage is not None and outage[0] <= epoch < outage[1]:
+                continue
+            when = when if latency else epoch
+        rows.append((when, topic, msg))
+    return [(topic, msg) for _, topic, msg in sorted(rows, key=lambda r: r[0])]
+
+
+def run_module(run, estimator="agnav", outage=None, latency=True, prepare=None, **overrides):
+    """The run's messages through the shipped navigation pipeline of config nsm (agnav_bringup.offline: the node's
+    parameters, message order and fix handling), estimator and `overrides` (settings fields) replacing parameters;
+    prepare(backend) runs before the replay. Returns arrays at every IMU message and the cost per message."""
+    pipeline = offline.pipeline_for(NSM, estimator=estimator, **_parameters(overrides))
     if prepare:
-        prepare(nsm)
-    gyro, enu = sensor_streams(run)
-    g, incl = run.gnss, run.incl
-    arrival = g.t_arrival if arrival is None else arrival
-    order = np.argsort(arrival, kind="stable")
-    gi, out = 0, []
+        prepare(pipeline.backend)
+    rows = sim_rows(run, outage, latency)
     start = time.perf_counter()
-    for i, t in enumerate(run.imu.t):
-        while gi < len(order) and arrival[order[gi]] <= t:
-            j = order[gi]
-            if outage is None or not outage[0] <= g.t[j] < outage[1]:
-                nsm.gnss(T0 + g.t[j], enu[j], g.cov[j], g.vel[j])
-            gi += 1
-        if incl is not None:
-            nsm.inclinometer(T0 + incl.t[i], incl.roll[i], incl.pitch[i])
-        s = nsm.imu(T0 + t, gyro[i])
-        out.append((s.position[0], s.position[1], s.rpy[0], s.rpy[1], s.rpy[2], s.heading_valid,
-                    *np.diag(s.pose_cov)[[0, 1, 3, 4, 5]]))
-    cost = (time.perf_counter() - start) / len(run.imu.t) * 1e6
-    a = np.array(out)
+    states = offline.run_rows(pipeline, NSM, rows)
+    cost = (time.perf_counter() - start) / len(states) * 1e6
+    a = np.array([(s.position[0], s.position[1], s.rpy[0], s.rpy[1], s.rpy[2], pipeline.ready(s),
+                   *np.diag(s.pose_cov)[[0, 1, 3, 4, 5]]) for s in states])
     return dict(x=a[:, 0], y=a[:, 1], roll=a[:, 2], pitch=a[:, 3], yaw=a[:, 4], valid=a[:, 5] > 0,
                 var_x=a[:, 6], var_y=a[:, 7], var_roll=a[:, 8], var_pitch=a[:, 9], var_yaw=a[:, 10], us=cost,
-                counters=nsm.counters, module=nsm)
+                counters=pipeline.backend.counters, module=pipeline.backend)
 
 
 def errors(run, est, valid=None):
@@ -173,10 +189,10 @@ def table_54(seed):
     calibrated = {"incl_zero_deg": tuple(float(v) for v in zero * DEG)}
     rows, cost = [], {}
     for col, name in enumerate(SURFACES):
-        run = simulate(name, seed=seed)
+        run = simulate(name, seed=seed, messages=True)
         raw = raw_sensors(run)
         ests = {f"module ({e})": run_module(run, e, **calibrated) for e in ("thesis", "agnav")}
-        ests["module (agnav, uncalibrated)"] = run_module(run, "agnav")
+        ests["module (agnav, uncalibrated)"] = run_module(run, "agnav", **UNCALIBRATED)
         valid = ests["module (agnav)"]["valid"]
         for e in ("thesis", "agnav"):
             cost[e] = ests[f"module ({e})"]["us"]
@@ -185,7 +201,7 @@ def table_54(seed):
             cost[key] = est["us"]
         ests["RTS smoother (offline)"] = thesis_anchors.smoother(run, **calibrated)
         errs = {k: errors(run, est, est["valid"] if k.startswith("module") else valid) for k, est in ests.items()}
-        quiet = simulate(name, seed=seed, gnss=QUIET_STARFIRE)
+        quiet = simulate(name, seed=seed, messages=True, gnss=QUIET_STARFIRE)
         errs[SHORT_TERM_ROW] = {"position": errors(quiet, run_module(quiet, "agnav", **calibrated))["position"]}
         floors = error_floors(run, zero)
         for qty, (z_rms, within) in consistency(run, ests["module (agnav)"]).items():
@@ -259,7 +275,7 @@ def kise_rows(seed):
     from agnav_drivers.sim import simulate
     from agnav_bringup.bench import thesis_anchors
 
-    run = simulate("gps_gyro_straight", seed=seed)
+    run = simulate("gps_gyro_straight", seed=seed, messages=True)
     gyro, enu = sensor_streams(run)
     g, tr = run.gnss, run.truth
     true_heading = heading_from_yaw(tr.yaw)
@@ -295,8 +311,8 @@ def kise_rows(seed):
     # slow error over minutes + 1.5 cm white; 1000 s = the first-order stand-in for that smooth error, chosen on
     # seeds 4-6 against 300 / 3000 s)
     ekf = NavEKFSettings(gnss_bias_tau=1000.0, gnss_white_sigma=0.015)
-    est = run_module(run, "agnav", ekf=ekf)
-    smoothed = thesis_anchors.smoother(run, ekf=ekf)
+    est = run_module(run, "agnav", ekf=ekf, **UNCALIBRATED)
+    smoothed = thesis_anchors.smoother(run, ekf=ekf, **UNCALIBRATED)
     rows = [_row("kise", "gps_gyro_straight", "heading", "GNSS course", rms(course_err) * DEG, 2.36),
             _row("kise", "gps_gyro_straight", "heading", "gyro (zero-calibrated)",
                  rms(wrap_angle(raw - true_heading)) * DEG, 1.83),

@@ -123,7 +123,7 @@ def smoother(run, **overrides):
     def enable_logs(nsm):
         nsm.roll_filter.log, nsm.pitch_filter.log, nsm.ekf.log = [], [], []
 
-    est = run_module(run, "agnav", arrival=run.gnss.t, prepare=enable_logs, **overrides)
+    est = run_module(run, "agnav", latency=False, prepare=enable_logs, **overrides)
     nsm = est["module"]
     # a run without tilt sensor logs no attitude filter step: its output stands
     roll, pitch = (kalman.smooth_log(f.log)[0][:, 0] if f.log else np.empty(0)

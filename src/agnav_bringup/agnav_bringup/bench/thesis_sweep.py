@@ -34,7 +34,7 @@ def _scaled(path, factor):
 
 def variants():
     """{name: run_module keyword overrides}: the defaults, a latency-free replay, each setting x0.5 and x2."""
-    out = {"defaults": {}, "GNSS without latency": {"arrival": "epoch"}}
+    out = {"defaults": {}, "GNSS without latency": {"latency": False}}
     for path in SCALED:
         for factor in (0.5, 2.0):
             out[f"{path} x{factor:g}"] = _scaled(path, factor)
@@ -44,14 +44,12 @@ def variants():
 def measure(seeds):
     from agnav_drivers.sim import simulate
 
-    runs = [(simulate(name, seed=seed), tilt_zero(seed)) for seed in seeds for name in SURFACES]
+    runs = [(simulate(name, seed=seed, messages=True), tilt_zero(seed)) for seed in seeds for name in SURFACES]
     rows = []
     for name, overrides in variants().items():
         cells = {q: [] for q in QUANTITIES}
         for run, zero in runs:
             kw = dict(overrides, incl_zero_deg=tuple(float(v) for v in zero * DEG))
-            if kw.get("arrival") == "epoch":
-                kw["arrival"] = run.gnss.t
             est = run_module(run, "agnav", **kw)
             for q, v in errors(run, est, est["valid"]).items():
                 cells[q].append(v)

@@ -6,7 +6,7 @@ from rosbags.interfaces import Qos, QosDurability, QosHistory, QosLiveliness, Qo
 from rosbags.rosbag2 import Writer
 from rosbags.rosbag2.enums import CompressionFormat, CompressionMode, StoragePlugin
 
-from .messages import LATCHED_TOPICS, TOPIC_TYPES, MessageFactory
+from .messages import LATCHED_TOPICS, TOPIC_TYPES, run_rows
 
 _ZERO = QosTime(sec=0, nsec=0)
 
@@ -29,12 +29,7 @@ def record(sim, out_dir, overwrite=False):
         if not overwrite:
             raise FileExistsError(f"{out} exists (use --overwrite)")
         shutil.rmtree(out)
-    factory = MessageFactory(sim)
-    rows = [(0.0, topic, msg) for topic, msg in factory.static()]
-    while not sim.done:
-        for sample in sim.step():
-            rows.extend((when, topic, msg) for topic, when, msg in factory.convert(*sample))
-    rows.sort(key=lambda r: r[0])
+    factory, rows = run_rows(sim)
     counts = {}
     writer = Writer(out, version=9, storage_plugin=StoragePlugin.MCAP)
     writer.set_compression(CompressionMode.STORAGE, CompressionFormat.ZSTD)

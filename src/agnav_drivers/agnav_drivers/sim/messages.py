@@ -141,3 +141,18 @@ class MessageFactory:
         """CDR bytes of msg for topic."""
         return bytes(self.ts.serialize_cdr(msg, TOPIC_TYPES[topic]))
 
+
+
+def run_rows(sim, on_sample=None):
+    """(factory, [(publish time s, topic, msg)]) of running `sim` to its end with its built-in driver, in the order a
+    bag holds them (latched messages first; sensors at their stamp, GNSS at its arrival); on_sample(kind, stamp,
+    data) sees every simulator sample."""
+    factory = MessageFactory(sim)
+    rows = [(0.0, topic, msg) for topic, msg in factory.static()]
+    while not sim.done:
+        for sample in sim.step():
+            if on_sample:
+                on_sample(*sample)
+            rows.extend((when, topic, msg) for topic, when, msg in factory.convert(*sample))
+    rows.sort(key=lambda r: r[0])
+    return factory, rows

@@ -3,6 +3,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .messages import run_rows
 from .simulator import TractorSimulator
 
 
@@ -89,6 +90,7 @@ class SimRun:
     gyro_truth_bias: np.ndarray
     imu_rate_hz: float
     extras: dict = field(default_factory=dict)
+    messages: list | None = None  # [(publish time s, topic, msg)] as `agnav sim` writes them to a bag (messages=True)
 
 
 def _stack(samples, keys, cls, **fixed):
@@ -99,13 +101,18 @@ def _stack(samples, keys, cls, **fixed):
     return cls(t=t, **cols, **fixed)
 
 
-def simulate(scenario="asphalt_loop", seed=0, **overrides):
-    """Run a scenario to the end with the built-in driver; deterministic per seed. -> SimRun."""
+def simulate(scenario="asphalt_loop", seed=0, messages=False, **overrides):
+    """Run a scenario to the end with the built-in driver; deterministic per seed. -> SimRun (with the ROS messages
+    of the run, in the order of its bag, when `messages`)."""
     sim = TractorSimulator(scenario, seed, **overrides)
     by_kind = {k: [] for k in ("truth", "imu", "incl", "mag", "gnss")}
+
+    def collect(kind, stamp, data):
+        by_kind[kind].append((stamp, data))
+    rows = run_rows(sim, collect)[1] if messages else None
     while not sim.done:
-        for kind, stamp, data in sim.step():
-            by_kind[kind].append((stamp, data))
+        for sample in sim.step():
+            collect(*sample)
     sc = sim.scenario
     imu = by_kind["imu"]
     accel = np.array([d["accel"] for _, d in imu]) if sim.accel else None
@@ -127,4 +134,5 @@ def simulate(scenario="asphalt_loop", seed=0, **overrides):
         incl=_stack(by_kind["incl"], ["roll", "pitch"], InclData),
         mag=_stack(by_kind["mag"], ["field"], MagData),
         gnss=_stack(by_kind["gnss"], [f for f in GnssData.__dataclass_fields__ if f != "t"], GnssData),
-        gyro_truth_bias=np.array([d["bias"] for _, d in imu]), imu_rate_hz=sc.imu_rate_hz, extras=extras)
+        gyro_truth_bias=np.array([d["bias"] for _, d in imu]), imu_rate_hz=sc.imu_rate_hz, extras=extras,
+        messages=rows)
