@@ -169,7 +169,8 @@ def test_ins_node_checks_gnss_stamps_values_and_covariances(ros):
                 "fix_stamp_off_reference": fix(1100.0, good)}
     for name, msg in rejected.items():
         node.on_fix(msg)
-        assert node.pending_fix is None and node.events.totals.get(name) == 1, name
+        assert node.pending_fix is None, name
+        assert node.events.totals.get(name) == 1, name
     assert node.plane is None                       # the NO_FIX fix did not become the datum
     node.on_fix(fix(99.94, np.zeros((3, 3))))       # all zero: not given -> the default
     assert np.allclose(node.pending_fix.pos_cov_enu, np.eye(3) * node.default_fix_sigma ** 2)
@@ -179,7 +180,8 @@ def test_ins_node_checks_gnss_stamps_values_and_covariances(ros):
 
     for name, cov in (("vel_nan_covariance", np.full((3, 3), math.nan)), ("vel_negative_covariance", -good)):
         node.on_vel(vel(99.96 + 0.001 * len(node.events.totals), cov))
-        assert not node.velocities and node.events.totals.get(name) == 1, name
+        assert not node.velocities, name
+        assert node.events.totals.get(name) == 1, name
     node.on_vel(vel(99.98, np.zeros((3, 3))))
     node.on_vel(vel(99.99, np.diag([1e-4, 0.0, 1e-4])))
     assert np.allclose(node.velocities[0][2], np.eye(3) * node.default_vel_sigma ** 2)

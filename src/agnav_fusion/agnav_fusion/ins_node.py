@@ -288,7 +288,7 @@ class InsNode(Node):
                           "the INS needs them", values
         if self.ekf is None:
             return WARN, f"waiting for TF {self.frames['base']}->{self.frames['imu']}/{self.frames['gnss']}", values
-        problems = [f"{sum(recent.values())} inputs rejected in the last {self.events.window:g} s ("
+        problems = [f"{sum(recent.values())} input problems in the last {self.events.window:g} s ("
                     + ", ".join(f"{k} {v}" for k, v in sorted(recent.items())) + ")"] if recent else []
         age = now - self.imu_time if self.imu_time is not None else math.inf
         values["imu_age_s"] = age
