@@ -36,6 +36,8 @@ class TfBuffer:
             self._parent[t.child_frame_id] = (
                 t.header.frame_id, np.array([tr.x, tr.y, tr.z]), np.array([q.x, q.y, q.z, q.w]))
 
+    _on_tf = add  # former name of the callback, fed directly by test/fusion/test_heading_node.py
+
     def _to_ancestors(self, frame):
         """{ancestor: (xyz, quat) of ancestor->frame} for frame itself (None: identity) and every frame above it."""
         chain, xyz, quat = {frame: None}, None, None
