@@ -20,7 +20,13 @@ import numpy as np
 
 def finite(*values):
     """True when every value (scalars or arrays) is finite."""
-    return all(np.all(np.isfinite(np.asarray(v, dtype=float))) for v in values)
+    for v in values:
+        if isinstance(v, (float, int)):
+            if not math.isfinite(v):
+                return False
+        elif not np.all(np.isfinite(np.asarray(v, dtype=float))):
+            return False
+    return True
 
 
 @dataclass

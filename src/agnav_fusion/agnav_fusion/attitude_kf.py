@@ -51,19 +51,15 @@ class AttitudeKF:
             self._acc_lag = accel_error
         a = dt / s.tau
         F = np.array([[1.0, -dt, 0.0], [0.0, 1.0, 0.0], [a, 0.0, 1.0 - a]])
-        Q = np.diag([(s.gyro_noise ** 2) * dt, (s.bias_walk ** 2) * dt, 0.0])
-        x, P = kalman.predict(self.x, self.P, F, Q)
+        x, P = kalman.predict(self.x, self.P, F, 0.0)
+        P[0, 0] += s.gyro_noise ** 2 * dt
+        P[1, 1] += s.bias_walk ** 2 * dt
         x[0] += rate * dt
         self._acc_lag += a * (accel_error - self._acc_lag)
         x_pred, P_pred = x, P
         if incl is not None:
-            H = np.array([[0.0, 0.0, 1.0]])
-            R = np.array([[s.incl_noise ** 2]])
-            y, S, d2 = kalman.innovation(x, P, np.array([incl - self._acc_lag]), H, R)
-            if d2 <= s.gate:
-                x, P = kalman.update(x, P, y, S, H, R)
-            else:
-                self.rejected += 1
+            x, P, d2 = kalman.update_state(x, P, 2, incl - self._acc_lag, s.incl_noise ** 2, s.gate)
+            self.rejected += d2 > s.gate
         self.x, self.P = x, P
         if self.log is not None:
             self.log.append((F, x_pred, P_pred, x, P))

@@ -21,6 +21,21 @@ def update(x, P, y, S, H, R):
     return x + K @ y, IKH @ P @ IKH.T + K @ R @ K.T
 
 
+def update_state(x, P, i, z, r, gate=None):
+    """Measurement z (variance r) of the single state x[i]: the same update as innovation + update for H = e_i,
+    without the small-matrix overhead (the per-sample path). Returns (x, P, d2); refused (x, P unchanged) when
+    d2 exceeds `gate`."""
+    Pi = P[:, i]
+    S = Pi[i] + r
+    y = z - x[i]
+    d2 = y * y / S
+    if gate is not None and d2 > gate:
+        return x, P, d2
+    K = Pi / S
+    P = P - np.outer(K, Pi)
+    return x + K * y, (P + P.T) * 0.5, d2
+
+
 def rts(xs_f, Ps_f, xs_p, Ps_p, Fs, angles=()):
     """RTS smoother: filtered (x_k|k, P_k|k), predicted (x_k+1|k, P_k+1|k) and F_k (x_k+1 = F_k x_k);
     state indices in `angles` are differenced on the circle."""
