@@ -16,9 +16,10 @@ IMPORT_KEYS = {
     "matplotlib": "python3-matplotlib", "tqdm": "python3-tqdm", "pymap3d": "python3-pymap3d",
     "pynmea2": "python3-pynmea2", "pytest": "python3-pytest", "hypothesis": "python3-hypothesis",
     "rosbags": "python3-rosbags-pip", "pyubx2": "python3-pyubx2-pip", "ahrs": "python3-ahrs-pip",
-    # not in rosdistro yet: pip-style keys that need a custom rosdep source until upstreamed
+    # not in rosdistro yet (NO_UPSTREAM_KEY): pip-style keys, skipped by the README's rosdep command
     "pygeomag": "python3-pygeomag-pip", "pyrtklib": "python3-pyrtklib-pip", "imufusion": "python3-imufusion-pip",
 }
+NO_UPSTREAM_KEY = {"pygeomag", "pyrtklib", "imufusion"}
 # ROS packages whose Python module is the package (and rosdep key) name
 ROS_MODULES = {"rclpy", "rcl_interfaces", "builtin_interfaces", "std_srvs", "launch", "launch_ros"}
 # keys a package needs without importing them: run-time executables and interface runtime
@@ -97,6 +98,15 @@ def test_test_imports_are_declared(package):
     assert all(rosdep_key(m) for m in imports), f"unknown test imports: {sorted(imports)}"
     missing = {rosdep_key(m): str(f) for m, f in imports.items() if rosdep_key(m) not in exec_keys | test_keys}
     assert not missing, f"{package}/package.xml lacks <test_depend> for {missing}"
+
+
+def test_readme_rosdep_command_skips_exactly_the_keys_rosdistro_lacks():
+    readme = (SRC.parent / "README.md").read_text()
+    skipped = readme.split('--skip-keys "')[1].split('"')[0].split()
+    assert sorted(skipped) == sorted(IMPORT_KEYS[m] for m in NO_UPSTREAM_KEY)
+    pip_line = next(line for line in readme.splitlines() if line.startswith("pip install pygeomag"))
+    pins = dict(line.split("==") for line in (SRC.parent / "requirements.txt").read_text().split() if "==" in line)
+    assert sorted(pip_line.split("#")[0].split()[2:]) == sorted(f"{m}=={pins[m]}" for m in NO_UPSTREAM_KEY)
 
 
 def test_agnav_layers():
