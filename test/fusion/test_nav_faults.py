@@ -128,3 +128,32 @@ def test_rejections_leave_the_recent_window():
     nsm, _ = drive(seconds=60.0, mutate=mutate)
     assert nsm.counters["gnss_bad_value"] == 1
     assert "gnss_bad_value" not in nsm.guard.recent()
+
+
+def test_stuck_imu_short_gaps_zero_velocity_covariance_and_overdue_fixes_are_seen():
+    """Each fault shows as an event within a fraction of a second (what the node publishes on /diagnostics)."""
+    events = []
+
+    def mutate(kind, args):
+        t = args[0]
+        if kind == "imu" and 40.0 <= t < 42.0:      # stuck: the 40.0 s reading repeated with current stamps
+            return (t, mutate.stuck)
+        if kind == "imu" and t < 40.0:
+            mutate.stuck = args[1]
+        if kind == "imu" and 45.0 < t <= 45.2:      # a 0.2 s gap (10 samples at 50 Hz)
+            return None
+        if kind == "gnss" and 50.0 <= t < 52.0:     # zero velocity covariance
+            return (*args[:4], 0.0)
+        if kind == "gnss" and 60.0 <= t < 70.0:     # outage
+            return None
+        return args
+    nsm, out = drive(seconds=80.0, mutate=lambda kind, args: mutate(kind, args),
+                     on_start=lambda m: setattr(m.guard, "on_problem", lambda e: events.append((m.guard.now, e))))
+    first = {}
+    for t, e in events:
+        first.setdefault(e, t)
+    assert 40.0 < first["imu_stuck"] < 40.25 and nsm.counters["imu_stuck"] > 90  # 2 s at 50 Hz, less the first readings
+    assert any(45.2 <= t < 45.3 for t, e in events if e == "imu_gap")
+    assert 50.0 < first["vel_zero_covariance"] < 50.2
+    assert 60.0 < first["gnss_overdue"] < 61.0  # the 60 s fix missing: 1.5 periods after the 59 s one
+    assert not any(s.dead_reckoning for t, s, *_ in out if 40.0 < t < 42.5)  # a stuck gyro is bridged, not believed

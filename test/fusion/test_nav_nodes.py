@@ -46,10 +46,12 @@ def feed(ros, node, extra_topics, seconds=12.0):
             fix.header.stamp = to_stamp(t)
             fix.status.status = NavSatStatus.STATUS_SBAS_FIX
             fix.position_covariance = [4e-4, 0, 0, 0, 4e-4, 0, 0, 0, 1e-3]
+            fix.position_covariance_type = NavSatFix.COVARIANCE_TYPE_KNOWN
             fix_pub.publish(fix)
         imu = Imu()
         imu.header.stamp = to_stamp(t)
-        imu.angular_velocity.z = 0.001 if k != 300 else math.nan  # one poisoned sample
+        # a sensor's noise (a bit-identical repeated reading is a stuck IMU), and one poisoned sample
+        imu.angular_velocity.z = 0.001 + 1e-5 * math.sin(k) if k != 300 else math.nan
         imu_pub.publish(imu)
         incl = Inclination(roll=0.0, pitch=0.0)
         incl.header.stamp = to_stamp(t)

@@ -19,12 +19,14 @@ def truth(t):
 
 
 def drive(settings=None, seconds=80.0, outage=(), jump_at=(), seed=2, latency=0.1, velocity=True,
-          speed=lambda t: 1.0, wheel=False, mutate=lambda kind, args: args):
+          speed=lambda t: 1.0, wheel=False, mutate=lambda kind, args: args, on_start=None):
     """Simulate and feed the module in arrival order (wheel: a 10 Hz wheel speed reading 1 % fast); returns
     per-sample (t, state, true x, true y, true yaw). mutate(kind, args) may edit ("imu": (t, gyro), "gnss": (t,
     antenna, cov, vel)) or drop (None) an input."""
     rng = np.random.default_rng(seed)
     nsm = NavSensorModule(settings or NavSensorModuleSettings(lever_flu=LEVER))
+    if on_start:
+        on_start(nsm)
     x = y = 0.0
     dt = 1.0 / RATE
     pending, out = [], []

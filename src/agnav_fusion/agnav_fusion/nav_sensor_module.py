@@ -63,8 +63,10 @@ class NavSensorModuleSettings:
     untracked_tilt_sigma: float = 0.035       # rad, roll/pitch uncertainty while no tilt sensor reports (2°: field)
     gnss_timeout: float = 2.5                 # s without an accepted fix -> dead reckoning
     max_dt: float = 0.5                       # s, a longer IMU gap is counted and bridged in steps of this length
+    gap_periods: float = 3.0                  # IMU sample periods: a longer spacing is counted as a gap
     gap_rate_sigma: float = 0.05              # rad/s, unknown yaw-rate change across an IMU gap
-    gap_accel_sigma: float = 0.3              # m/s^2, unknown acceleration across an IMU gap
+    gap_accel_sigma: float = 0.5              # m/s^2, unknown acceleration across an IMU gap
+    gnss_overdue_periods: float = 1.5         # fix periods without a fix: gnss_overdue (diagnostics)
     max_gap: float = 10.0                     # s, after a longer IMU gap the navigation solution restarts
     guard: InputGuardSettings = field(default_factory=InputGuardSettings)
 
@@ -140,6 +142,9 @@ class NavSensorModule:
             self.heading_lsm = GnssGyroHeading(s.heading)
             self.dr = DeadReckoning(s.dead_reckoning)
         self._history.clear()
+        self._imu_period = None                    # s, running mean IMU sample spacing
+        self._gnss_epoch = (None, None)            # (latest fix epoch, running mean fix period)
+        self._gnss_arrival, self._gnss_overdue = (0.0, None), False
         self._pending_gnss = []
         self._incl = None            # (t, roll, pitch) REP-103
         self._wheel = None           # agnav: latest wheel speed (t, speed, variance) not yet fused
@@ -183,6 +188,7 @@ class NavSensorModule:
         if cov is None:
             return False
         self.guard.count("gnss")
+        self._fix_arrived(t)
         if vel_enu is not None:
             vel_var = self.guard.velocity_variance(vel_var, self.settings.velocity_sigma ** 2)
             if vel_var is None or not self.guard.accept("vel", t, vel_enu):
@@ -208,13 +214,17 @@ class NavSensorModule:
         if not self.guard.accept("imu", t, gyro_flu):
             return None
         self.guard.count("imu")
+        s = self.settings
         dt = t - self._history[-1].t if self._history else 0.0
-        if dt > self.settings.max_gap:
+        if dt > s.max_gap:
             self.guard.count("imu_gap_restart")
             self._start()
             dt = 0.0
-        elif dt > self.settings.max_dt:
+        elif dt > s.max_dt or (self._imu_period and dt > s.gap_periods * self._imu_period):
             self.guard.count("imu_gap")
+        elif dt > 0:
+            self._imu_period = dt if self._imu_period is None else self._imu_period + 0.01 * (dt - self._imu_period)
+        self._check_gnss_overdue(t)
         self._step(t, dt, np.asarray(gyro_flu, dtype=float))
         self._drain_gnss()
         self._state = self._output()
@@ -222,6 +232,24 @@ class NavSensorModule:
 
     def state(self):
         return self._state
+
+    def _check_gnss_overdue(self, t):
+        """Count one gnss_overdue event when no fix has arrived for gnss_overdue_periods fix periods."""
+        last, period = self._gnss_arrival
+        if period and not self._gnss_overdue and t - last > self.settings.gnss_overdue_periods * period:
+            self._gnss_overdue = True
+            self.guard.count("gnss_overdue")
+
+    def _fix_arrived(self, t_fix):
+        """A fix arrived at IMU time now: its epoch spacing sets the fix period the overdue check expects."""
+        now = max(self._history[-1].t, t_fix) if self._history else t_fix
+        last_epoch, period = self._gnss_epoch
+        if last_epoch is not None and t_fix > last_epoch:
+            step = t_fix - last_epoch
+            period = step if period is None else period + 0.1 * (min(step, 2 * period) - period)
+        self._gnss_epoch = (t_fix, period)
+        self._gnss_arrival = (now, period)
+        self._gnss_overdue = False
 
     # ---- per-sample processing -----------------------------------------------------------------------
     def _step(self, t, dt, gyro):

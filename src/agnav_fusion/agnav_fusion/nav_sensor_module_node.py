@@ -30,6 +30,8 @@ from agnav_fusion.nav_sensor_module import MOUNTS, NavSensorModule, NavSensorMod
 from agnav_fusion.navigation_output import map_datum_message, pose_transforms
 from agnav_fusion.pipeline import FrontEndSettings, NavigationPipeline
 
+URGENT_PERIOD = 0.25  # s of node time between diagnostics published on input problems
+
 
 def imu_message(s, frame_id, max_yaw_variance=None):
     """sensor_msgs/Imu of a module state: orientation + covariance, bias-corrected rates, no acceleration."""
@@ -112,9 +114,18 @@ class NavSensorModuleNode(Node):
             self.pipeline.start()
         self.last_imu_arrival = None  # node time of the latest /imu/data_raw message
         self.published = 0
-        diag = Diagnostics(self, "nav_sensor_module")
-        diag.add("inputs", self.check_inputs)
-        diag.add("state", self.check_state)
+        self.diag = Diagnostics(self, "nav_sensor_module")
+        self.diag.add("inputs", self.check_inputs)
+        self.diag.add("state", self.check_state)
+        self.last_urgent = -float("inf")
+        self.nsm.guard.on_problem = self.on_problem
+
+    def on_problem(self, event):
+        """A new input problem is on /diagnostics at once (at most every URGENT_PERIOD s), not at the next tick."""
+        now = self.node_time()
+        if now - self.last_urgent >= URGENT_PERIOD or now < self.last_urgent:
+            self.last_urgent = now
+            self.diag.publish()
 
     def node_time(self):
         return self.get_clock().now().nanoseconds * 1e-9
