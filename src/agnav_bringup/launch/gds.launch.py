@@ -46,6 +46,5 @@ def generate_launch_description():
                  'wmm_fallback_year': 0.0,
                  'disturbance.intensity_tolerance': 0.1,
                  'disturbance.inclination_tolerance_deg': 5.0,
-                 'disturbance.deweight_factor': 25.0,
              }, {'use_sim_time': use_sim_time}]),
     ])

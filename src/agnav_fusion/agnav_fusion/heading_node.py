@@ -20,7 +20,7 @@ Parameters of the gate: disturbance.intensity_tolerance, disturbance.inclination
 disturbance.innovation_k_sigma (4), disturbance.reference_window (10 s), disturbance.recover_time (1 s),
 disturbance.offset_sigma_floor_deg; gyro.bias_sigma_deg_s (the bias the estimator does not remove: VWA/KF the
 whole bias, LSM its residual), gyro.arw_deg_sqrt_s, gyro.bias_walk_deg_s_sqrt_s; gds.systematic_sigma_deg (0.4,
-added to the GDS estimators' variance). disturbance.deweight_factor is obsolete (accepted, ignored).
+added to the GDS estimators' variance).
 Input stamps: one agnav_common.input_guard.StreamClock per stream (a lone future stamp is rejected, never
 moves the stream's time).
 """
@@ -75,7 +75,6 @@ class HeadingNode(Node):
         self.wmm = MagneticModel(fallback_year=fallback or None)
         self.dist = DisturbanceSettings(p("disturbance.intensity_tolerance", 0.10),
                                         math.radians(p("disturbance.inclination_tolerance_deg", 5.0)))
-        p("disturbance.deweight_factor", 25.0)   # obsolete (a disturbed GDS is not fused): accepted, ignored
         deg = math.radians
         gyro = GyroErrorSettings(deg(p("gyro.bias_sigma_deg_s", 0.05)), deg(p("gyro.arw_deg_sqrt_s", 0.05)),
                                  deg(p("gyro.bias_walk_deg_s_sqrt_s", 0.001)))
