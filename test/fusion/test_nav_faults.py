@@ -98,7 +98,7 @@ def test_a_persistent_jump_restarts_the_position_after_gnss_reset_time():
         return (args[0], args[1] + np.array([5.0, 0.0, 0.0]), *args[2:]) if kind == "gnss" and args[0] >= 40 else args
     nsm, out = drive(settings, seconds=70.0, mutate=mutate)
     assert nsm.counters["gnss_forced"] == 1
-    assert abs(nsm.ekf.x[IV] - 1.0) < 0.2
+    assert abs(nsm.estimator.ekf.x[IV] - 1.0) < 0.2
     shifted = [(t, s, x + 5.0, y, yaw) for t, s, x, y, yaw in out]
     assert errors(shifted, 55.0)[0] < 0.1
 

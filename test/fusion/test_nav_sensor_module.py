@@ -163,7 +163,7 @@ def test_standstill_learns_the_yaw_gyro_offset():
         nsm.inclinometer(t, 0.0, 0.0)
         nsm.imu(t, np.array([0.0, 0.0, offset]) + rng.normal(0, 0.004, 3))
     # the EKF bias is of the clockwise rate (thesis convention): -offset
-    assert nsm.ekf.x[IB] == pytest.approx(-offset, abs=1e-3)
+    assert nsm.estimator.ekf.x[IB] == pytest.approx(-offset, abs=1e-3)
     assert nsm.state().rates[2] == pytest.approx(0.0, abs=0.01)
 
 
@@ -172,7 +172,7 @@ def test_speed_is_fused_before_the_heading_is_known():
     nsm, out = drive(seconds=20.0)
     early = [s for t, s, *_ in out if 12.0 <= t < 13.0]
     assert not early[0].heading_valid
-    assert nsm.ekf.x is not None and abs(nsm.ekf.x[IV] - 1.0) < 0.1
+    assert nsm.estimator.ekf.x is not None and abs(nsm.estimator.ekf.x[IV] - 1.0) < 0.1
 
 
 def test_standing_still_does_not_creep():

@@ -121,10 +121,11 @@ def smoother(run, **overrides):
     from agnav_bringup.bench.thesis import run_module
 
     def enable_logs(nsm):
-        nsm.roll_filter.log, nsm.pitch_filter.log, nsm.ekf.log = [], [], []
+        e = nsm.estimator
+        e.roll_filter.log, e.pitch_filter.log, e.ekf.log = [], [], []
 
     est = run_module(run, "agnav", latency=False, prepare=enable_logs, **overrides)
-    nsm = est["module"]
+    nsm = est["module"].estimator
     # a run without tilt sensor logs no attitude filter step: its output stands
     roll, pitch = (kalman.smooth_log(f.log)[0][:, 0] if f.log else np.empty(0)
                    for f in (nsm.roll_filter, nsm.pitch_filter))

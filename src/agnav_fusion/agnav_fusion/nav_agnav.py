@@ -1,0 +1,211 @@
+"""agnav's estimator of the navigation sensor module: two attitude KFs (inclinometer lag + kinematic acceleration
+model, attitude_kf.py) and the navigation EKF (nav_ekf.py: position, heading, yaw-gyro bias, speed, acceleration),
+with standstill and wheel-speed updates, the chord heading start and receiver velocity fusion. Thesis conventions
+inside (heading clockwise from north, pitch nose up); NavSensorModule converts at its boundary.
+"""
+import math
+
+import numpy as np
+
+from agnav_fusion.attitude_kf import AttitudeKF
+from agnav_fusion.nav_ekf import IA, IB, IPHI, IV, NavEKF
+from agnav_fusion.nav_settings import GRAVITY, cross, euler_rates
+
+POSE_XY_YAW, EKF_XY_PHI = np.ix_([0, 1, 5], [0, 1, 5]), np.ix_([0, 1, IPHI], [0, 1, IPHI])
+YAW_SIGN = np.array([[1, 1, -1], [1, 1, -1], [-1, -1, 1]])  # heading cw -> yaw ccw flips the cross terms
+
+
+class AgnavEstimator:
+    """Backend of NavSensorModule (`m`: its history, settings, guard and gate)."""
+
+    def __init__(self, m):
+        s = m.settings
+        self.m = m
+        self.roll_filter, self.pitch_filter = AttitudeKF(s.roll_kf), AttitudeKF(s.pitch_kf)
+        self.ekf = NavEKF(s.ekf)
+        self.wheel = None          # latest wheel speed (t, speed, variance) not yet fused
+        self.raw_heading = 0.0     # relative yaw before the absolute heading exists
+        self.heading_known = False  # absolute heading initialised from the GNSS course
+        self.chord_start = None    # (xy, relative heading) of the first moving fix before initialisation
+        self.still = False         # the latest fix says the vehicle stands still
+
+    # ---- per IMU sample ---------------------------------------------------------------------------------
+    def step(self, t, dt, gyro, prev, roll_incl, pitch_incl):
+        """-> (rate_cw, roll, pitch, heading, raw heading, nav, still, wheel) of this sample."""
+        s = self.m.settings
+        roll0, pitch0 = (prev.roll, prev.pitch) if prev else (0.0, 0.0)
+        droll, dpitch, dyaw = euler_rates(gyro, roll0, -pitch0)
+        rate_cw = -dyaw
+        acc = self._kinematic_acceleration(gyro, prev, dt) if s.accel_compensation else np.zeros(3)
+        # a pendulum reads roll + a_y/g and (REP-103) pitch - a_x/g, i.e. thesis nose-up pitch + a_x/g
+        roll = self.roll_filter.update(droll, roll_incl, dt, acc[1] / GRAVITY)
+        pitch = self.pitch_filter.update(-dpitch, pitch_incl, dt, acc[0] / GRAVITY)
+        self.raw_heading += rate_cw * dt
+        wheel = self.wheel[1:] if self.wheel and 0 <= t - self.wheel[0] <= s.wheel_timeout else None
+        self.wheel = None if wheel else self.wheel
+        if self.ekf.x is not None:
+            self.propagate(rate_cw, dt, self.still, wheel)
+            heading, nav = self.ekf.x[IPHI], (self.ekf.x.copy(), self.ekf.P.copy())
+        else:
+            heading, nav = self.raw_heading, None
+        return rate_cw, roll, pitch, heading, self.raw_heading, nav, self.still, wheel
+
+    def propagate(self, rate_cw, dt, still, wheel=None):
+        """EKF prediction with the yaw rate; standing still, the gyro reading is its bias (zero-rate update);
+        a wheel speed (speed, variance) measures V. An IMU gap is bridged in steps of max_dt with the yaw rate and
+        acceleration it may have hidden added as noise."""
+        s, ekf = self.m.settings, self.ekf
+        if dt > s.max_dt:
+            n = math.ceil(dt / s.max_dt)
+            for _ in range(n):
+                ekf.P[IPHI, IPHI] += (s.gap_rate_sigma * dt) ** 2 / n
+                ekf.P[IV, IV] += (s.gap_accel_sigma * dt) ** 2 / n
+                ekf.predict(rate_cw, dt / n)
+        else:
+            ekf.predict(rate_cw, dt)
+        if still:
+            y, S, H, R = ekf.zero_rate_innovation(rate_cw, s.still_rate_sigma ** 2)
+            ekf.update(y, S, H, R)
+        if wheel is not None:
+            self._fuse(ekf.speed_innovation(*wheel), counter="wheel_gated")
+
+    def _kinematic_acceleration(self, gyro, prev, dt):
+        """Body (FLU) acceleration of the inclinometer: forward A, centripetal V*wz, and the lever-arm terms
+        alpha x r + w x (w x r) (alpha from gyro differences; the inclinometer lag filters its noise)."""
+        speed, accel = (self.ekf.x[IV], self.ekf.x[IA]) if self.ekf.x is not None else (0.0, 0.0)
+        r = self.m.settings.incl_lever_flu
+        alpha = (gyro - prev.body_rates) / dt if prev is not None and dt > 0 else np.zeros(3)
+        return np.array([accel, speed * gyro[2], 0.0]) + cross(alpha, r) + cross(gyro, cross(gyro, r))
+
+    # ---- GNSS fix at its epoch ------------------------------------------------------------------------
+    def white_fix_covariance(self, cov2):
+        """The receiver's slow error becomes the EKF's bias states; the rest is white."""
+        return self.ekf.split_fix_covariance(cov2)[0]
+
+    def fix(self, k, t, xy, R, v_ref, vel, vel_var, speed):
+        """Fuse a tilt-corrected fix (and its receiver velocity) at history sample k; True when the position was
+        accepted."""
+        m, s = self.m, self.m.settings
+        if speed is None and m.last_fix is not None:  # V from successive tilt-corrected fixes
+            speed = float(np.hypot(*(xy - m.last_fix[1][:2]))) / max(t - m.last_fix[0], 1e-3)
+        # still: slower than stationary_speed, or for a receiver velocity than twice its noise (its norm's bias)
+        still_below = max(s.stationary_speed, 2.0 * s.velocity_sigma) if self._doppler(vel, vel_var) \
+            else s.stationary_speed
+        was_still, self.still = self.still, speed is not None and speed < still_below
+        return self._fuse_fix(k, t, xy, R, v_ref, vel_var, speed, was_still and not self.still)
+
+    def _fuse_fix(self, k, t, xy, R, v_ref, vel_var, speed, started):
+        s, hist, ekf = self.m.settings, self.m.history, self.ekf
+        snap = hist[k]
+        first, verdict = ekf.x is None, True
+        if first:  # position and speed from the first fix; heading unknown until moving
+            ekf.initialise(xy, R, snap.heading, speed or 0.0)
+            ekf.P[IPHI, IPHI] = math.pi ** 2
+        else:
+            ekf.x, ekf.P = snap.nav[0].copy(), snap.nav[1].copy()
+            if started:  # the gyro bias learnt standing still shifts once the vehicle moves
+                ekf.P[IB, IB] += s.motion_bias_sigma ** 2
+        if first:
+            pass
+        elif not self.heading_known:
+            self._fix_before_heading(snap, xy, R, v_ref, vel_var, speed)
+        else:
+            y, S, d2, H = ekf.position_innovation(xy, R)
+            verdict = self.m.gate(t, d2)
+            doppler = self._doppler(v_ref, vel_var)
+            if verdict is False and not doppler:  # a refused fix's own difference velocity is no better
+                ekf.x, ekf.P = hist[-1].nav[0].copy(), hist[-1].nav[1].copy()
+                return False
+            if verdict is None:
+                ekf.reset_position(xy, R)
+            elif verdict:
+                ekf.update(y, S, H, R)
+            if self.still and doppler:  # standing: zero speed (noise has no direction)
+                self._fuse(ekf.standstill_innovation(s.standstill_sigma ** 2), gated=False)
+            elif s.use_gnss_velocity and v_ref is not None:  # a receiver velocity even when its fix is refused
+                Rv = vel_var * np.eye(2)
+                y, S, d2, H = ekf.velocity_innovation(v_ref, Rv)
+                if d2 <= s.gate_chi2:
+                    ekf.update(y, S, H, Rv)
+                else:
+                    self.m.guard.count("velocity_gated")
+        snap.nav, snap.heading = (ekf.x.copy(), ekf.P.copy()), ekf.x[IPHI]
+        for j in range(k + 1, len(hist)):  # replay the IMU samples received since the epoch
+            self.propagate(hist[j].rate_cw, hist[j].dt, hist[j].still, hist[j].wheel)
+            hist[j].nav, hist[j].heading = (ekf.x.copy(), ekf.P.copy()), ekf.x[IPHI]
+        return verdict is not False
+
+    def _fix_before_heading(self, snap, xy, R, v_ref, vel_var, speed):
+        """No heading yet: decoupled heading, speed fused, heading from the chord of moving fixes or the course."""
+        s, ekf = self.m.settings, self.ekf
+        for i, var in ((IPHI, math.pi ** 2), (IB, ekf.P[IB, IB])):
+            ekf.P[i, :] = ekf.P[:, i] = 0.0
+            ekf.P[i, i] = var
+        if self.still and self._doppler(v_ref, vel_var):
+            self._fuse(ekf.standstill_innovation(s.standstill_sigma ** 2), gated=False)
+        elif v_ref is not None and speed > 3.0 * math.sqrt(vel_var):  # (a slower norm is biased by the noise)
+            self._fuse(ekf.speed_innovation(speed, vel_var))  # needs no heading: carries the start of motion
+        chord = self._chord_course(xy, snap.raw_heading, speed or 0.0)
+        if chord is not None:  # absolute heading from the chord between moving fixes
+            ekf.x[IPHI] = chord
+            ekf.P[IPHI, IPHI] = np.trace(R) / s.heading_init_distance ** 2
+            self.heading_known = True
+        elif v_ref is not None and speed >= s.heading_init_speed:  # provisional: the course over ground
+            ekf.x[IPHI] = math.atan2(*v_ref)
+            ekf.P[IPHI, IPHI] = s.ekf.init_heading_sigma ** 2
+        y, S, d2, H = ekf.position_innovation(xy, R)
+        ekf.update(y, S, H, R)
+
+    def _doppler(self, vel, vel_var):
+        """True for a receiver velocity (variance at the velocity_sigma floor), not one from fix differences:
+        only that one tells standing still from creeping."""
+        return vel is not None and vel_var <= self.m.settings.velocity_sigma ** 2
+
+    def _fuse(self, innovation, gated=True, counter="velocity_gated"):
+        """EKF update from a (y, S, d2, H, R) speed or standstill innovation, gated unless a constraint."""
+        y, S, d2, H, R = innovation
+        if not gated or d2 <= self.m.settings.gate_chi2:
+            self.ekf.update(y, S, H, R)
+        else:
+            self.m.guard.count(counter)
+
+    def _chord_course(self, xy, rel_heading, speed):
+        """Heading (rad, cw from north) at this fix from the chord to the first moving fix once it is
+        heading_init_distance long (the chord's direction is the mean heading: half the gyro turn is added), or None.
+        speed: from /gnss/vel when present, else from successive fixes."""
+        s = self.m.settings
+        if speed < s.heading_init_speed:
+            self.chord_start = None
+            return None
+        if self.chord_start is None:
+            self.chord_start = (xy, rel_heading)
+            return None
+        d = xy - self.chord_start[0]
+        if np.hypot(*d) < s.heading_init_distance:
+            return None
+        return math.atan2(d[0], d[1]) + 0.5 * math.remainder(rel_heading - self.chord_start[1], 2 * math.pi)
+
+    # ---- outputs --------------------------------------------------------------------------------------
+    def heading_variance(self):
+        return float(self.ekf.P[IPHI, IPHI]) if self.ekf.x is not None else math.inf
+
+    def rate_corrections(self):
+        """(roll, thesis pitch, clockwise yaw) gyro corrections."""
+        yaw = -float(self.ekf.x[IB]) if self.ekf.x is not None else 0.0
+        return -self.roll_filter.bias, -self.pitch_filter.bias, yaw
+
+    def output(self, snap, position, pose_cov, twist_cov):
+        """Fill the navigation part of the output; -> (speed, heading_valid, position_valid)."""
+        m = self.m
+        if snap.nav is not None:
+            x, P = snap.nav
+            position[:2] = x[:2]
+            pose_cov[POSE_XY_YAW] = P[EKF_XY_PHI] * YAW_SIGN
+            twist_cov[0, 0] = P[IV, IV]
+            twist_cov[5, 5] = P[IB, IB] + m.settings.ekf.rate_noise ** 2
+            return float(x[IV]), self.heading_known, True
+        if m.last_fix is not None:
+            position[:2] = m.last_fix[1][:2]
+            pose_cov[:2, :2] = m.last_fix[2][:2, :2]
+            return 0.0, False, True
+        return 0.0, False, False
