@@ -23,9 +23,9 @@ class NavEKFSettings:
     jerk_noise: float = 0.3        # m/s^3/sqrt(Hz) longitudinal jerk
     accel_tau: float = 2.0         # s, longitudinal acceleration is Gauss-Markov (decays to 0 without fixes)
     slip_noise: float = 0.005      # m/sqrt(s) unmodelled position motion (slip, sway)
-    init_heading_sigma: float = 0.2
+    init_heading_sigma: float = 0.2  # rad, heading from a first course over ground (before the chord)
     init_bias_sigma: float = 0.005  # rad/s
-    init_speed_sigma: float = 0.5
+    init_speed_sigma: float = 0.5    # m/s, speed at the first fix
     gnss_bias_tau: float = 0.0     # s, correlation time of the receiver's slow error; 0: fixes are white (no bias)
     gnss_white_sigma: float = 0.025  # m per axis, fix-to-fix part of the receiver error; the rest of a fix's
     #                                  covariance is the slow bias (used when gnss_bias_tau > 0)

@@ -15,7 +15,7 @@ import numpy as np
 from agnav_common.diagnostics import OK, WARN, Diagnostics
 from agnav_common.frames import quaternion_from_euler
 from agnav_common.node_main import main_for
-from agnav_common.parameters import declare
+from agnav_common.parameters import declare, leaves
 from agnav_common.qos import LATCHED_QOS, PUBLISHER_QOS, SENSOR_QOS
 from agnav_common.stamps import to_stamp
 from agnav_common.tf import TfBuffer, TransformBroadcaster
@@ -81,10 +81,19 @@ class NavNodeSettings:
     imu_timeout: float = 0.5              # s of node time without an IMU message: diagnostics say stale
 
 
+def _settings():
+    """(settings, fields left out) behind the node's parameters: node, front end, module (mounts come from TF)."""
+    return [(NavNodeSettings(), ()), (FrontEndSettings(), ()), (NavSensorModuleSettings(), MOUNTS)]
+
+
 def declare_all(node):
     """Declare node, front-end and module settings (descriptors, read-only); returns the three settings."""
-    return (declare(node, NavNodeSettings()), declare(node, FrontEndSettings()),
-            declare(node, NavSensorModuleSettings(), skip=MOUNTS))
+    return tuple(declare(node, obj, skip=skip) for obj, skip in _settings())
+
+
+def parameter_entries():
+    """[(name, default, description)] of every parameter (tools/gen_params.py writes the params file from it)."""
+    return [entry for obj, skip in _settings() for entry in leaves(obj, skip=skip)]
 
 
 class NavSensorModuleNode(Node):
