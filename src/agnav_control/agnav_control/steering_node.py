@@ -83,10 +83,10 @@ class SteeringNode(Node):
         if self.line_frame == "map" and self.line_a != self.line_b:
             self._set_line(GuidanceLine.from_points(self.line_a, self.line_b), "parameters")
 
-        self.state_pub = self.create_publisher(GuidanceState, "/guidance/state", PUBLISHER_QOS)
-        self.cmd_pub = self.create_publisher(SteeringCommand, "/steering/command", PUBLISHER_QOS)
-        self.create_subscription(Odometry, "/odometry/filtered", self._on_odometry, SENSOR_QOS)
-        self.create_subscription(NavSatFix, "/map_datum", self._on_datum, LATCHED_QOS)
+        self.state_pub = self.create_publisher(GuidanceState, "guidance/state", PUBLISHER_QOS)
+        self.cmd_pub = self.create_publisher(SteeringCommand, "steering/command", PUBLISHER_QOS)
+        self.create_subscription(Odometry, "odometry/filtered", self._on_odometry, SENSOR_QOS)
+        self.create_subscription(NavSatFix, "map_datum", self._on_datum, LATCHED_QOS)
         if not self.get_parameter("use_sim_time").value:
             self.create_subscription(Clock, "/clock", self._on_clock, SENSOR_QOS)
         self.create_service(Trigger, "steering/set_line_here", self._srv_set_line_here)

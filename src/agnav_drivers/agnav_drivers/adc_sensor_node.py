@@ -42,9 +42,9 @@ class AdcSensorNode(StreamDriverNode):
         self.accel_var = p("accel_noise", 0.05).value ** 2                    # (m/s^2)^2
         self.incl_var = math.radians(p("incl_noise", 0.5).value) ** 2         # deg rms -> rad^2
         self.mag_var = (p("mag_noise", 1.25).value * 1e-7) ** 2               # mG rms -> T^2
-        self.imu_pub = self.create_publisher(Imu, "/imu/data_raw", PUBLISHER_QOS)
-        self.incl_pub = self.create_publisher(Inclination, "/inclinometer", PUBLISHER_QOS)
-        self.mag_pub = self.create_publisher(MagneticField, "/imu/mag", PUBLISHER_QOS)
+        self.imu_pub = self.create_publisher(Imu, "imu/data_raw", PUBLISHER_QOS)
+        self.incl_pub = self.create_publisher(Inclination, "inclinometer", PUBLISHER_QOS)
+        self.mag_pub = self.create_publisher(MagneticField, "imu/mag", PUBLISHER_QOS)
         self.create_service(Trigger, "~/calibrate_gyro", self._calibrate)
         self.diagnostics.add("adc", self._check)
         self.diagnostics.add("gyro_zero", self._gyro_check)

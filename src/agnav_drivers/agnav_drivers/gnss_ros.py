@@ -27,11 +27,11 @@ class GnssPublishers:
         self.frame_id = p("frame_id", "gnss_link").value
         self.service = p("service", NavSatStatus.SERVICE_GPS).value
         self.heading_std = math.radians(p("heading_std", default_heading_std_deg).value)
-        self.fix = node.create_publisher(NavSatFix, "/gnss/fix", PUBLISHER_QOS)
-        self.vel = node.create_publisher(TwistWithCovarianceStamped, "/gnss/vel", PUBLISHER_QOS)
-        self.status = node.create_publisher(GnssStatus, "/gnss/status", PUBLISHER_QOS)
-        self.heading = node.create_publisher(Imu, "/gnss/heading", PUBLISHER_QOS)
-        self.time_ref = node.create_publisher(TimeReference, "/gnss/time_reference", PUBLISHER_QOS)
+        self.fix = node.create_publisher(NavSatFix, "gnss/fix", PUBLISHER_QOS)
+        self.vel = node.create_publisher(TwistWithCovarianceStamped, "gnss/vel", PUBLISHER_QOS)
+        self.status = node.create_publisher(GnssStatus, "gnss/status", PUBLISHER_QOS)
+        self.heading = node.create_publisher(Imu, "gnss/heading", PUBLISHER_QOS)
+        self.time_ref = node.create_publisher(TimeReference, "gnss/time_reference", PUBLISHER_QOS)
         self.last_fix_type = g.FIX_NONE
         self._handlers = {g.GnssFix: self._fix, g.GnssVelocity: self._vel, g.GnssFixStatus: self._status,
                           g.GnssAttitude: self._attitude, g.ReceiverTime: self._time}

@@ -15,8 +15,8 @@ WEEK = 604800.0
 class RawPublishers:
     def __init__(self, node):
         self.node = node
-        self.obs = node.create_publisher(GnssObservationsMsg, "/gnss/raw_observations", PUBLISHER_QOS)
-        self.nav = node.create_publisher(GnssNavData, "/gnss/nav_data", PUBLISHER_QOS)
+        self.obs = node.create_publisher(GnssObservationsMsg, "gnss/raw_observations", PUBLISHER_QOS)
+        self.nav = node.create_publisher(GnssNavData, "gnss/nav_data", PUBLISHER_QOS)
 
     def publish(self, event) -> int:
         if isinstance(event, GnssObservations):

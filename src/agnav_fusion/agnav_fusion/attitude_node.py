@@ -19,7 +19,7 @@ class AttitudeNode(NavSensorModuleNode):
     def __init__(self, **kwargs):
         super().__init__("attitude_node", **kwargs)
         self.publish_tf = False
-        self.imu_pub = self.create_publisher(Imu, "/imu/data", PUBLISHER_QOS)
+        self.imu_pub = self.create_publisher(Imu, "imu/data", PUBLISHER_QOS)
 
     def ready(self, state):
         """Attitude is published from the first sample (yaw relative, with its large variance)."""

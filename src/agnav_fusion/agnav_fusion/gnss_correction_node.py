@@ -41,9 +41,9 @@ class GnssCorrectionNode(Node):
         self.create_timer(0.1, self.correct_pending)
         self.counts = {}
         self.events = EventWindow(p("diagnostic_window", 10.0))  # s of node time the diagnostics describe
-        self.pub = self.create_publisher(NavSatFix, "/gnss/fix_corrected", PUBLISHER_QOS)
-        self.create_subscription(NavSatFix, "/gnss/fix", self.on_fix, SENSOR_QOS)
-        self.create_subscription(Odometry, "/odometry/filtered", self.on_odom, SENSOR_QOS)
+        self.pub = self.create_publisher(NavSatFix, "gnss/fix_corrected", PUBLISHER_QOS)
+        self.create_subscription(NavSatFix, "gnss/fix", self.on_fix, SENSOR_QOS)
+        self.create_subscription(Odometry, "odometry/filtered", self.on_odom, SENSOR_QOS)
         Diagnostics(self, "gnss_correction").add("inputs", self.check_inputs)
 
     def now(self):

@@ -113,14 +113,14 @@ class HeadingNode(Node):
         self._rates = np.zeros(3)
         self.tf = TfBuffer(self)
 
-        self.pub = self.create_publisher(Imu, "/heading/imu", PUBLISHER_QOS)
-        self.create_subscription(Imu, "/imu/data_raw", self._on_gyro, SENSOR_QOS)
-        self.create_subscription(MagneticField, "/imu/mag", self._on_mag, SENSOR_QOS)
-        self.create_subscription(NavSatFix, "/gnss/fix", self._on_fix, SENSOR_QOS)
+        self.pub = self.create_publisher(Imu, "heading/imu", PUBLISHER_QOS)
+        self.create_subscription(Imu, "imu/data_raw", self._on_gyro, SENSOR_QOS)
+        self.create_subscription(MagneticField, "imu/mag", self._on_mag, SENSOR_QOS)
+        self.create_subscription(NavSatFix, "gnss/fix", self._on_fix, SENSOR_QOS)
         if self.tilt_source == "imu_data":
-            self.create_subscription(Imu, "/imu/data", self._on_imu_data, SENSOR_QOS)
+            self.create_subscription(Imu, "imu/data", self._on_imu_data, SENSOR_QOS)
         elif self.tilt_source == "inclinometer":
-            self.create_subscription(Inclination, "/inclinometer", self._on_inclinometer, SENSOR_QOS)
+            self.create_subscription(Inclination, "inclinometer", self._on_inclinometer, SENSOR_QOS)
         self.diagnostics = Diagnostics(self, "heading")
         self.diagnostics.add("heading", self._diagnose)
 

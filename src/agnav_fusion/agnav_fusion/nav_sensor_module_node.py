@@ -110,16 +110,16 @@ class NavSensorModuleNode(Node):
         self.pipeline = NavigationPipeline(self.nsm, front, on_datum=self.publish_datum if self.uses_gnss else None)
         self.tf = TfBuffer(self)
         self.tf_out = TransformBroadcaster(self)
-        self.create_subscription(Imu, "/imu/data_raw", self.on_imu, SENSOR_QOS)
+        self.create_subscription(Imu, "imu/data_raw", self.on_imu, SENSOR_QOS)
         if front.tilt_source == "inclinometer":
-            self.create_subscription(Inclination, "/inclinometer", self.pipeline.on_inclinometer, SENSOR_QOS)
+            self.create_subscription(Inclination, "inclinometer", self.pipeline.on_inclinometer, SENSOR_QOS)
         if self.uses_gnss:
-            self.odom_pub = self.create_publisher(Odometry, "/odometry/filtered", PUBLISHER_QOS)
-            self.imu_pub = self.create_publisher(Imu, "/imu/data", PUBLISHER_QOS)  # the fused attitude
-            self.datum_pub = self.create_publisher(NavSatFix, "/map_datum", LATCHED_QOS)
-            self.create_subscription(NavSatFix, "/gnss/fix", self.pipeline.on_fix, SENSOR_QOS)
-            self.create_subscription(TwistWithCovarianceStamped, "/gnss/vel", self.pipeline.on_velocity, SENSOR_QOS)
-            self.create_subscription(Odometry, "/wheel/odometry", self.pipeline.on_wheel, SENSOR_QOS)
+            self.odom_pub = self.create_publisher(Odometry, "odometry/filtered", PUBLISHER_QOS)
+            self.imu_pub = self.create_publisher(Imu, "imu/data", PUBLISHER_QOS)  # the fused attitude
+            self.datum_pub = self.create_publisher(NavSatFix, "map_datum", LATCHED_QOS)
+            self.create_subscription(NavSatFix, "gnss/fix", self.pipeline.on_fix, SENSOR_QOS)
+            self.create_subscription(TwistWithCovarianceStamped, "gnss/vel", self.pipeline.on_velocity, SENSOR_QOS)
+            self.create_subscription(Odometry, "wheel/odometry", self.pipeline.on_wheel, SENSOR_QOS)
             self.pipeline.start()
         self.last_imu_arrival = None  # node time of the latest /imu/data_raw message
         self.published = 0
