@@ -14,7 +14,7 @@ import pytest
 pytest.importorskip("rclpy")
 
 from agnav_bringup.evaluate import evaluate_bags, read_bag  # noqa: E402
-from agnav_common.bagio import filter_bag  # noqa: E402
+from agnav_common.bagio import filter_bag, typestore  # noqa: E402
 from rosbags.highlevel import AnyReader  # noqa: E402
 
 SECONDS = 45.0
@@ -89,3 +89,21 @@ def test_offline_pipeline_equals_the_graph(replay, request):
         return
     assert published.shape == offline.shape
     assert np.array_equal(published[:, 1:], offline[:, 1:])
+
+
+def test_odom_is_continuous_rep105(replay):
+    """odom->base_link never steps more than the motion of one 10 ms sample plus 2 mm; the fixes' corrections
+    appear in map->odom instead."""
+    _, out = replay
+    with AnyReader([out], default_typestore=typestore()) as reader:
+        tfs = [tr for c, _, raw in reader.messages([c for c in reader.connections if c.topic == "/tf"])
+               for tr in reader.deserialize(raw, c.msgtype).transforms]
+    stamp = lambda tr: tr.header.stamp.sec + tr.header.stamp.nanosec * 1e-9  # noqa: E731
+    odom = np.array([[stamp(tr), tr.transform.translation.x, tr.transform.translation.y] for tr in tfs
+                     if tr.child_frame_id == "base_link"])
+    map_odom = np.array([[tr.transform.translation.x, tr.transform.translation.y] for tr in tfs
+                         if tr.child_frame_id == "odom"])
+    assert len(odom) > 1000
+    steps = np.hypot(*np.diff(odom[:, 1:], axis=0).T) / np.maximum(np.diff(odom[:, 0]) / 0.01, 1.0)
+    assert steps.max() < 0.01  # 0.8 m/s: 8 mm per 10 ms sample
+    assert np.ptp(map_odom, axis=0).max() > 0.01  # corrections exist, and went here

@@ -7,7 +7,7 @@ in graphs without GNSS.) Simulated input: `agnav sim asphalt_loop --seed 1 --out
 Run (a full ROS 2 install; `agnav run nsm` is the equivalent without one):
     ros2 launch agnav_bringup nsm.launch.py use_sim_time:=true
     ros2 bag play bags/asphalt_loop --clock
-    ros2 bag record /odometry/filtered /imu/data /gnss/fix_corrected /map_datum /tf_static /ground_truth/odometry /diagnostics
+    ros2 bag record /odometry/filtered /imu/data /gnss/fix_corrected /map_datum /tf /tf_static /ground_truth/odometry /diagnostics
 """
 from launch import LaunchDescription
 from launch.actions import DeclareLaunchArgument

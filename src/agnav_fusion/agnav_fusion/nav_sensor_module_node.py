@@ -1,7 +1,7 @@
 """Navigation sensor module node (SPEC §6.3): /imu/data_raw + /inclinometer + /gnss/fix (+ /gnss/vel, + wheel or
 radar speed on /wheel/odometry: nav_msgs/Odometry twist.linear.x with its covariance)
 -> /odometry/filtered at the IMU rate (frame map, child base_link, pose + twist covariance), TF map->odom->base_link
-(map->odom identity: the module's map pose is continuous enough between 1 Hz fixes), /map_datum (latched).
+(REP-105: odom->base_link dead-reckoned and continuous, the fixes' corrections in map->odom), /map_datum (latched).
 
 A thin wrapper: every message goes unchanged to agnav_fusion.pipeline.NavigationPipeline (front end + the
 NavSensorModule backend), which the offline replay and the benchmarks drive the same way. The node owns topics,
@@ -28,6 +28,7 @@ from sensor_msgs.msg import Imu, NavSatFix
 
 from agnav_fusion.nav_sensor_module import MOUNTS, NavSensorModule, NavSensorModuleSettings
 from agnav_fusion.navigation_output import map_datum_message, pose_transforms
+from agnav_fusion.odom_frame import OdomFrame
 from agnav_fusion.pipeline import FrontEndSettings, NavigationPipeline
 
 URGENT_PERIOD = 0.25  # s of node time between diagnostics published on input problems
@@ -110,6 +111,7 @@ class NavSensorModuleNode(Node):
         self.pipeline = NavigationPipeline(self.nsm, front, on_datum=self.publish_datum if self.uses_gnss else None)
         self.tf = TfBuffer(self)
         self.tf_out = TransformBroadcaster(self)
+        self.odom_frame = OdomFrame()
         self.create_subscription(Imu, "imu/data_raw", self.on_imu, SENSOR_QOS)
         if front.tilt_source == "inclinometer":
             self.create_subscription(Inclination, "inclinometer", self.pipeline.on_inclinometer, SENSOR_QOS)
@@ -169,9 +171,9 @@ class NavSensorModuleNode(Node):
         odom = odometry_message(s, self.frames)
         self.odom_pub.publish(odom)
         self.imu_pub.publish(imu_message(s, self.frames["base"]))
-        if self.publish_tf:
-            q = odom.pose.pose.orientation
-            self.tf_out.send(pose_transforms(self.frames, odom.header.stamp, s.position, (q.x, q.y, q.z, q.w)))
+        if self.publish_tf:  # REP-105: odom->base_link continuous, the fixes' corrections in map->odom
+            xyz, quat, map_xyz, map_quat = self.odom_frame.update(s.t, s.position, s.rpy, s.speed, s.rates[2])
+            self.tf_out.send(pose_transforms(self.frames, odom.header.stamp, xyz, quat, (map_xyz, map_quat)))
 
     def check_inputs(self):
         """Rejections over the guard's recent window (IMU time) and IMU staleness (node time): the present."""

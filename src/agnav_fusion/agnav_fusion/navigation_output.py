@@ -17,7 +17,7 @@ def map_datum_message(lat, lon, alt, frame_id, stamp):
     return msg
 
 
-def pose_transforms(frames, stamp, position, quat):
-    """map->odom (identity: no discrete jumps are split off) and odom->base_link at the fused pose."""
-    return [make_transform(frames["map"], frames["odom"], stamp, (0.0, 0.0, 0.0), IDENTITY),
+def pose_transforms(frames, stamp, position, quat, map_to_odom=((0.0, 0.0, 0.0), IDENTITY)):
+    """map->odom (default identity) and odom->base_link (xyz, quaternion xyzw) transforms."""
+    return [make_transform(frames["map"], frames["odom"], stamp, *map_to_odom),
             make_transform(frames["odom"], frames["base"], stamp, position, quat)]
