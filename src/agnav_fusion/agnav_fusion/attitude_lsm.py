@@ -1,9 +1,8 @@
 """Attitude-package LSM: roll or pitch from a vibratory gyro and a lagging capacitive inclinometer
 (SPEC §6.2, eq 5.1-5.11). One instance per axis; angles rad, rates rad/s, thesis sign conventions."""
+import math
 from collections import deque
 from dataclasses import dataclass
-
-import numpy as np
 
 from agnav_fusion.drift_lsm import WindowDriftLSM
 
@@ -23,6 +22,7 @@ class AttitudeLSM:
         self._lsm = WindowDriftLSM(self.settings.window, self.settings.delay)
         self._history = deque(maxlen=self.settings.delay + 1)  # past angle estimates for the lagged residual
         self._resid = deque(maxlen=self.settings.window + 1)
+        self._sums = [0.0, 0.0]  # running sum and sum of squares of _resid (its variance per sample in O(1))
         self._count = 0
         self.angle = None
 
@@ -42,7 +42,15 @@ class AttitudeLSM:
         # anchor: running mean at start-up (initial standstill), then a slow pull (IMPL)
         self._count += 1
         resid = incl - self._history[0]
+        if len(self._resid) == self._resid.maxlen:
+            old = self._resid[0]
+            self._sums[0] -= old
+            self._sums[1] -= old * old
         self._resid.append(resid)
+        self._sums[0] += resid
+        self._sums[1] += resid * resid
+        if self._count % self._resid.maxlen == 0:  # re-sum now and then: no drift from the running updates
+            self._sums = [math.fsum(self._resid), math.fsum(r * r for r in self._resid)]
         gain = 1.0 / self._count
         if self.settings.anchor_time > 0:
             gain = max(gain, dt / self.settings.anchor_time)
@@ -54,4 +62,8 @@ class AttitudeLSM:
     @property
     def variance(self):
         """Window variance of the inclinometer-minus-estimate residual (conservative, rad^2)."""
-        return float(np.var(self._resid)) if len(self._resid) > 1 else float("inf")
+        n = len(self._resid)
+        if n < 2:
+            return float("inf")
+        mean = self._sums[0] / n
+        return max(self._sums[1] / n - mean * mean, 0.0)

@@ -32,12 +32,14 @@ class DeadReckoning:
     def step(self, heading, speed, dt):
         """Advance one attitude-package sample (5.12)-(5.13); returns (xy, cov)."""
         s, c = math.sin(heading), math.cos(heading)
-        self.xy += np.array([s, c]) * speed * dt
+        self.xy[0] += s * speed * dt
+        self.xy[1] += c * speed * dt
         self._time += dt
         self._distance += abs(speed) * dt
-        # speed and heading errors are slow (bias-like): error grows with time / distance since the fix
-        along, cross = np.array([s, c]), np.array([c, -s])
-        sv = self.settings.speed_sigma * self._time
-        sh = self.settings.heading_sigma * self._distance
-        self.cov = self._cov0 + sv * sv * np.outer(along, along) + sh * sh * np.outer(cross, cross)
+        # speed and heading errors are slow (bias-like): error grows with time / distance since the fix; the
+        # along-track (s, c) and cross-track (c, -s) variances rotated into (X, Y)
+        va = (self.settings.speed_sigma * self._time) ** 2
+        vc = (self.settings.heading_sigma * self._distance) ** 2
+        sc = (va - vc) * s * c
+        self.cov = self._cov0 + np.array([[va * s * s + vc * c * c, sc], [sc, va * c * c + vc * s * s]])
         return self.xy, self.cov

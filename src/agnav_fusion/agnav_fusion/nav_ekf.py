@@ -14,6 +14,7 @@ import numpy as np
 from agnav_fusion import kalman
 
 IX, IY, IPHI, IB, IV, IA, IBX, IBY = range(8)
+DIAG8 = np.diag_indices(8)
 
 
 @dataclass
@@ -95,9 +96,10 @@ class NavEKF:
         x[IA] *= F[IA, IA]
         x[IBX:] *= F[IBX, IBX]
         q_bias = self.gnss_bias_var * (1.0 - F[IBX, IBX] ** 2)   # keeps the Gauss-Markov variance stationary
-        Q = np.diag([s.slip_noise ** 2 * dt, s.slip_noise ** 2 * dt, s.rate_noise ** 2 * dt,
-                     s.bias_walk ** 2 * dt, 0.0, s.jerk_noise ** 2 * dt, q_bias, q_bias])
-        self.P = F @ self.P @ F.T + Q
+        P = F @ self.P @ F.T
+        P[DIAG8] += (s.slip_noise ** 2 * dt, s.slip_noise ** 2 * dt, s.rate_noise ** 2 * dt,
+                     s.bias_walk ** 2 * dt, 0.0, s.jerk_noise ** 2 * dt, q_bias, q_bias)
+        self.P = P
         self.x = x
         if self.log is not None:
             self.log.append([F, x.copy(), self.P.copy(), x.copy(), self.P.copy()])
