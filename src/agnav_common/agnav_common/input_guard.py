@@ -24,6 +24,9 @@ def finite(*values):
         if isinstance(v, (float, int)):
             if not math.isfinite(v):
                 return False
+        elif np.ndim(v) == 1 and len(v) <= 9:  # small vectors: per element beats a numpy round trip
+            if not all(map(math.isfinite, v)):
+                return False
         elif not np.all(np.isfinite(np.asarray(v, dtype=float))):
             return False
     return True

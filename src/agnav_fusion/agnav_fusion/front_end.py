@@ -4,8 +4,11 @@
 stream time (bad, backwards and lone future stamps are rejected and never move the clock), GNSS stamps against the
 IMU clock, fix covariances (NaN/negative/indefinite rejected; zero or implausibly small ones replaced by the
 receiver's last good covariance, or floored), a stuck IMU (the same reading repeated bit for bit: dropped, so the
-estimator bridges it as a gap), and counts every event in totals and over a recent window, so that diagnostics
-describe the present; `on_problem(event)` (e.g. a node publishing its diagnostics at once) sees every problem.
+estimator bridges it as a gap; every value passed to accept counts: gyro and accelerometer together for an INS),
+and counts every event in totals and over a recent window, so that diagnostics describe the present;
+`on_problem(event)` (e.g. a node publishing its diagnostics at once, rate-limited by `Urgent`) sees every problem.
+A stream's clock rules can be set per stream (`clocks`); `Overdue` tells when a periodic stream (GNSS fixes, the
+IMU) has not arrived in time.
 """
 from dataclasses import dataclass
 
@@ -29,11 +32,13 @@ class InputGuardSettings:
 class InputGuard:
     """accept(stream, t, *values, ref=None) -> bool; fix_covariance(cov) -> 3x3 or None; totals and recent()."""
 
-    def __init__(self, settings=None):
+    def __init__(self, settings=None, clocks=None):
+        """clocks: {stream: StreamClockSettings} replacing the defaults (e.g. a tighter IMU max_jump, a lag limit)."""
         self.settings = s = settings or InputGuardSettings()
         clock = StreamClockSettings(max_jump=s.max_stamp_jump)
         self.clocks = {k: StreamClock(clock) for k in STREAMS}
         self.clocks["gnss"] = StreamClock(StreamClockSettings(max_jump=s.max_stamp_jump, max_lead=s.gnss_max_lead))
+        self.clocks.update({k: StreamClock(c) for k, c in (clocks or {}).items()})
         self.totals = {}
         self.events = EventWindow(s.diagnostic_window)
         self.now = 0.0            # latest accepted IMU time: the time base of the recent window
@@ -70,13 +75,17 @@ class InputGuard:
 
     def _stuck(self, values):
         """True from the stuck_samples-th bit-identical IMU reading in a row (real sensors have noise)."""
-        same = self._last_imu is not None and all(np.array_equal(a, b) for a, b in zip(values, self._last_imu))
-        self._repeats = self._repeats + 1 if same else 0
-        self._last_imu = [np.array(v, dtype=float) for v in values]
+        reading = tuple(float(x) for v in values for x in np.ravel(v))
+        self._repeats = self._repeats + 1 if reading == self._last_imu else 0
+        self._last_imu = reading
         return self._repeats >= self.settings.stuck_samples - 1
 
-    def fix_covariance(self, cov):
-        """A usable 3x3 fix covariance, or None (counted) when it cannot be believed at all."""
+    def fix_covariance(self, cov, default=None):
+        """A usable 3x3 fix covariance, or None (counted) when it cannot be believed at all. default: the covariance
+        of an all-zero one (not given) while no good covariance of the receiver is known (counted, used)."""
+        if default is not None and self._good_fix_cov is None and finite(cov) and not np.any(cov):
+            self.count("gnss_zero_covariance")
+            return np.array(default, dtype=float)
         c, problem = covariance(cov)
         if c is None:
             self.count(f"gnss_{problem}")
@@ -100,3 +109,59 @@ class InputGuard:
         if var == 0:
             self.count("vel_zero_covariance")
         return max(float(var), floor)
+
+    def velocity_covariance(self, cov, floor_var, default_var):
+        """A receiver velocity's 3x3 covariance: all zero (not given) -> default_var I, counted; NaN/negative/
+        indefinite -> None, counted; variances below floor_var raised (counted)."""
+        cov = np.asarray(cov, dtype=float).reshape(3, 3)
+        if finite(cov) and not cov.any():
+            self.count("vel_zero_covariance")
+            return np.eye(3) * default_var
+        checked, problem = covariance(cov, floor_var)
+        if problem:
+            self.count(f"vel_{problem}")
+        return checked
+
+
+class Overdue:
+    """A periodic stream that is late: its period is learnt from the epochs of its messages (a running mean; a longer
+    step counts as at most twice the period), and it is overdue once `periods` periods have passed since the last
+    one arrived, on the caller's time base (e.g. the IMU time)."""
+
+    def __init__(self, periods=1.5):
+        self.periods = periods
+        self.period = None
+        self.last = None            # (epoch, arrival time) of the latest message
+        self.overdue = False
+
+    def arrived(self, epoch, now=None):
+        """A message of epoch `epoch` arrived at time `now` (default: its epoch)."""
+        now = epoch if now is None else max(now, epoch)
+        if self.last is not None and epoch > self.last[0]:
+            step = epoch - self.last[0]
+            self.period = step if self.period is None else \
+                self.period + 0.1 * (min(step, 2 * self.period) - self.period)
+        self.last = (epoch, now)
+        self.overdue = False
+
+    def check(self, now):
+        """True once per outage: when `now` is more than `periods` periods after the last arrival."""
+        if self.period and not self.overdue and now - self.last[1] > self.periods * self.period:
+            self.overdue = True
+            return True
+        return False
+
+
+class Urgent:
+    """Rate limit of diagnostics published at once on input problems: due(now) is True at most every `period` s
+    (node time; a clock that went backwards, e.g. a restarted replay, re-arms it)."""
+
+    def __init__(self, period=0.25):
+        self.period = period
+        self.last = -float("inf")
+
+    def due(self, now):
+        if now - self.last >= self.period or now < self.last:
+            self.last = now
+            return True
+        return False
