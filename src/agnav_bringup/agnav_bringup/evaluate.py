@@ -13,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
+from agnav_common.bagio import unfinished
 from agnav_common.frames import euler_from_quaternion, wrap_angle
 from agnav_common.geodesy import LocalTangentPlane
 
@@ -208,6 +209,11 @@ def main(argv=None):
     parser.add_argument("--plots", help="directory for track.png and errors.png")
     parser.add_argument("--json", action="store_true", help="print one JSON object as the last line")
     args = parser.parse_args(argv)
+    for path in (args.output_bag, args.truth):
+        if unfinished(path):
+            print(f"agnav eval: {path} is an unfinished recording (its writer was killed): run `agnav recover "
+                  f"{path}` first", file=sys.stderr)
+            return 1
     try:
         metrics, est, truth, imu = evaluate_bags(args.output_bag, args.truth, args.skip)
     except (ValueError, FileNotFoundError) as exc:

@@ -24,8 +24,9 @@ from importlib.metadata import entry_points
 from pathlib import Path
 
 import yaml
+from agnav_common.checkout import checkout_root
 
-REPO_ROOT = Path(__file__).resolve().parents[3]  # the source checkout (editable install)
+REPO_ROOT = checkout_root(Path(__file__))  # bundled bags and docs (a colcon install: $AGNAV_ROOT or the cwd)
 # Bundled configs: the source tree, then the install prefixes (colcon / ament layout).
 CONFIG_DIRS = [Path(__file__).resolve().parents[1] / "config"] + [
     Path(p) / "share" / "agnav_bringup" / "config"

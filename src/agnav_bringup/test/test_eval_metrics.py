@@ -140,3 +140,12 @@ def test_unknown_imu_yaw_is_not_scored(truth_bag, tmp_path, capsys):
     assert m["imu_data"]["roll_deg"]["max"] == pytest.approx(0.0, abs=1e-6)
     assert m["imu_data"]["yaw_deg"]["rms"] is None
     assert (tmp_path / "errors.png").stat().st_size > 0
+
+
+def test_eval_names_agnav_recover_for_an_unfinished_recording(tmp_path, capsys):
+    from agnav_bringup.evaluate import main
+    rec = tmp_path / "killed"
+    rec.mkdir()
+    (rec / "killed_0.mcap").write_bytes(b"\x89MCAP0\r\n")  # a writer killed before metadata.yaml
+    assert main([str(rec), "--truth", str(rec)]) == 1
+    assert "agnav recover" in capsys.readouterr().err

@@ -8,6 +8,8 @@ from pathlib import Path
 
 import pytest
 
+from agnav_common.checkout import find_checkout
+
 os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
 os.environ.setdefault("ROS_DOMAIN_ID", str(101 + os.getpid() % 100))
 
@@ -23,18 +25,10 @@ def ros():
         rclpy.try_shutdown()
 
 
-def find_repo_root(start: Path) -> Path | None:
-    """The agnav checkout holding `start` (a folder with bags/ and src/agnav_bringup/), else None."""
-    for d in [start, *start.parents]:
-        if (d / "bags").is_dir() and (d / "src" / "agnav_bringup").is_dir():
-            return d
-    return None
-
-
 @pytest.fixture
 def repo_root(request):
     """The checkout the test file lives in; the test is skipped in a workspace without the bundled bags."""
-    root = find_repo_root(Path(str(request.path)).resolve().parent)
+    root = find_checkout(Path(str(request.path)).resolve().parent)
     if root is None:
         pytest.skip("needs the agnav checkout (bags/)")
     return root
