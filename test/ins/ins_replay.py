@@ -1,6 +1,6 @@
 """Replays bags/mems_field, clean or with one fault of agnav_bringup.fault_injection, through ins_node's callbacks in
-one process on a simulated clock, capturing /odometry/filtered and sampling the node's /diagnostics checks once per
-second as its 1 Hz timer does.
+one process on a simulated clock, capturing /odometry/filtered and the node's /diagnostics: sampled once per second
+as its 1 Hz timer does, and whenever the node publishes them at once (on a new input problem).
 
 No DDS in the loop: each bag message is handed to the callback of its topic at its recording time (the node clock
 follows the bag, as under `agnav run` with use_sim_time), so a replay is fast and deterministic.
@@ -122,6 +122,11 @@ def replay(messages, parameters=(), publish_from=0.0):
                  "/gnss/vel": node.on_vel, "/gnss/status": node.on_status}
     checks = {"inputs": node.check_inputs, "filter": node.check_filter}
     run = Run(node.odom_pub.msgs, node=node)
+
+    def sample(t):
+        run.diagnostics.append((t, {name: check() for name, check in checks.items()}))
+
+    node.diag.publish = lambda: sample(clock.now().nanoseconds * 1e-9 - base)   # urgent ones, at the node time
     next_diag = 1.0
     node.publish = lambda: None
     for t, topic, _, msg in messages:
@@ -129,7 +134,7 @@ def replay(messages, parameters=(), publish_from=0.0):
             del node.publish                # the node's own method again
         while t >= next_diag:       # the 1 Hz diagnostic timer fires before later messages are handled
             clock.set_ros_time_override(Time(nanoseconds=int(round((base + next_diag) * 1e9))))
-            run.diagnostics.append((next_diag, {name: check() for name, check in checks.items()}))
+            sample(next_diag)
             next_diag += 1.0
         clock.set_ros_time_override(Time(nanoseconds=int(round((base + t) * 1e9))))
         if topic == "/ground_truth/odometry":

@@ -1,7 +1,8 @@
 """ins_node through input faults at t = 100 s of bags/mems_field (agnav_bringup.fault_injection cases, replayed in
 one process on the bag's clock by ins_replay): every output within 3 sigma of the truth through and after the
 fault, back within 10 cm of the clean run at most 10 s after it, the output stream never lost, the fault on the
-diagnostics within 1 s and gone again some seconds after it, published covariances symmetric positive-definite."""
+diagnostics within 0.5 s (published at once on a new problem, not at the next 1 Hz tick) and gone again some seconds
+after it, published covariances symmetric positive-definite; the clean run's covariance honest over the bench span."""
 import math
 
 import numpy as np
@@ -15,17 +16,21 @@ from ins_replay import bag_messages, replay, with_fault, yaw_errors  # noqa: E40
 
 T0, END = 100.0, 116.0            # fault start, replay end [s after the bag start]
 FROM = T0 - 5.0                   # outputs checked from here
+DETECT = 0.5                      # s after the fault start by which /diagnostics show it
+BENCH_END = 170.0                 # the fault bench's clean ins run (bags/mems_field cropped)
 IMU, FIX, VEL = "/imu/data_raw", "/gnss/fix", "/gnss/vel"
 
 
-def case(name, kind, topic, duration=0.0, amount=0.0):
-    return FaultCase(name, kind, topic, T0, duration, amount)
+def case(name, kind, topic, duration=0.0, amount=0.0, also=()):
+    return FaultCase(name, kind, topic, T0, duration, amount, also=also)
 
 
 CASES = [
     case("imu_zero_stamp_x10", "zero_stamp", IMU, 0.095),      # ten samples
     case("imu_gyro_nan_1.5s", "nan", IMU, 1.5),
+    case("imu_gap_0.2s", "drop", IMU, 0.2),
     case("imu_gap_2s", "drop", IMU, 2.0),
+    case("imu_stuck_2s", "stuck", IMU, 2.0),                 # the last good message repeated, current stamps
     case("imu_stale_2s", "backwards_stamp", IMU, 2.0, 2.0),  # 2 s old stamps: all rejected
     case("imu_future_stamp_1000s", "future_stamp", IMU, 0.0, 1000.0),
     case("fix_future_stamp_1000s", "future_stamp", FIX, 0.0, 1000.0),
@@ -34,6 +39,9 @@ CASES = [
     case("vel_cov_negative", "negative_cov", VEL, 3.0),
     case("vel_cov_zero", "zero_cov", VEL, 3.0),
     case("fix_no_fix_3s", "no_fix", FIX, 3.0),
+    case("fix_inf", "inf", FIX, 3.0),
+    case("vel_inf", "inf", VEL, 3.0),
+    case("gnss_outage_3s", "drop", FIX, 3.0, also=(VEL, "/gnss/status")),
 ]
 
 
@@ -90,8 +98,31 @@ def test_ins_node_rides_through_the_fault(rclpy_module, messages, clean, fault):
     ref, got = clean.positions(), run.positions()
     late = [k for k in got if k >= fault.end + 10.0 and k in ref]
     assert late and max(np.linalg.norm(got[k] - ref[k]) for k in late) <= 0.10
-    # visible within 1 s (a diagnostic not OK), OK again some seconds after the fault
-    seen = [t for t, d in run.diagnostics if T0 < t <= T0 + 1.0 and any(s[0] != OK for s in d.values())]
-    assert seen, f"{fault.name} not on the diagnostics within 1 s"
+    # visible at once (a diagnostic not OK), OK again some seconds after the fault
+    seen = [t for t, d in run.diagnostics if T0 <= t <= T0 + DETECT and any(s[0] != OK for s in d.values())]
+    assert seen, f"{fault.name} not on the diagnostics within {DETECT} s"
     final = run.diagnostics[-1]
     assert final[0] >= fault.end + 8.0 and final[1]["inputs"][0] == OK, final
+
+
+def test_stuck_imu_is_caught_within_0_1_s(rclpy_module, messages):
+    """Ten bit-identical gyro + accelerometer readings (0.1 s at 100 Hz): dropped from there and bridged as a gap,
+    on /diagnostics at once; the filter never integrates the frozen reading for long."""
+    run = replay(with_fault(messages, case("imu_stuck_2s", "stuck", IMU, 2.0)), publish_from=FROM)
+    run.node.destroy_node()
+    first = min(t for t, d in run.diagnostics if d["inputs"][2].get("recent_imu_stuck"))
+    assert T0 < first <= T0 + 0.1
+    assert run.node.guard.totals["imu_stuck"] >= 190 and run.node.ekf.stats["bridged"]["imu_gap"] == 1
+
+
+def test_clean_run_covariance_is_honest(rclpy_module):
+    """Over the fault bench's clean span every output lies within 3 sigma of the truth (east, north, yaw): the
+    fixes' slowly drifting error (half their variance in bags/mems_field) is not averaged away in the published
+    covariance."""
+    run = replay(bag_messages(BENCH_END))
+    run.node.destroy_node()
+    rows = run.series(0.0)
+    assert len(rows) > 15000
+    over = [t for t, e, c in rows if abs(e[0]) > 3 * math.sqrt(c[0, 0]) or abs(e[1]) > 3 * math.sqrt(c[1, 1])]
+    assert not over, (len(over), over[0])
+    assert all(abs(e) <= 3 * s for _, e, s in yaw_errors(run, 0.0))

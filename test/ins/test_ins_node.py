@@ -70,7 +70,8 @@ def test_ins_node_tracks_the_simulated_run(ros):
         pubs[topic].publish(msg)
         n_imu += topic == "/imu/data_raw"
         if topic == "/imu/data_raw" and n_imu == 2000:  # a poisoned sample 5 ms later, then a repeated one
-            bad = Imu(header=msg.header)
+            bad = Imu()
+            bad.header.frame_id = msg.header.frame_id
             bad.header.stamp = to_stamp(to_sec(msg.header.stamp) + 0.005)
             bad.angular_velocity.x = math.nan
             spin(ex)
@@ -93,8 +94,8 @@ def test_ins_node_tracks_the_simulated_run(ros):
         errors.append(math.hypot(o.pose.pose.position.x - p.position.x, o.pose.pose.position.y - p.position.y))
     late = np.array(errors[-1000:])                 # last 10 s, after the in-motion alignment
     assert late.max() < 0.1
-    assert node.events.totals.get("imu_backwards_stamp") == 1     # the repeated sample
-    assert node.events.totals.get("imu_nan") == 1 and node.ekf.stats["rejected"].get("imu_nan") == 1
+    assert node.guard.totals.get("imu_backwards_stamp") == 1      # the repeated sample
+    assert node.guard.totals.get("imu_bad_value") == 1 and not node.ekf.stats["rejected"]   # never reaches the EKF
     h = node.check_filter()[2]
     assert h["mode"] == "gnss_aided" and h["gnss_epochs"] > 100
     node.destroy_node()
@@ -119,9 +120,10 @@ def test_ins_node_reports_missing_accelerometers(ros):
 
 
 def test_ins_node_checks_gnss_stamps_values_and_covariances(ros):
-    """NaN / negative / indefinite covariances are rejected, zero ones replaced by the default, tiny ones floored,
-    NO_FIX fixes never used (not even as the datum), a lone fix far ahead of the IMU time rejected without
-    shutting out the next ones; the inputs diagnostic shows each problem and forgets it after its window."""
+    """The front end's rules (InputGuard): NaN / negative / indefinite covariances are rejected, an all-zero one is
+    the default until the receiver gave a good one and then that one, tiny ones too; NO_FIX fixes never used (not
+    even as the datum), a lone fix far ahead of the IMU time rejected without shutting out the next ones; the inputs
+    diagnostic shows each problem and forgets it after its window (IMU time)."""
     from geometry_msgs.msg import TwistWithCovarianceStamped
     from rclpy.parameter import Parameter
     from rclpy.time import Time
@@ -162,35 +164,41 @@ def test_ins_node_checks_gnss_stamps_values_and_covariances(ros):
         return m
 
     good = np.eye(3) * 1e-4
-    rejected = {"fix_no_fix": fix(99.90, good, status=-1, lat=0.0, lon=0.0),
-                "fix_nan_covariance": fix(99.91, np.full((3, 3), math.nan)),
-                "fix_negative_covariance": fix(99.92, -good),
-                "fix_indefinite_covariance": fix(99.93, [[1e-4, 1e-3, 0], [1e-3, 1e-4, 0], [0, 0, 1e-4]]),
-                "fix_stamp_off_reference": fix(1100.0, good)}
+    rejected = {"gnss_no_fix": fix(99.90, good, status=-1, lat=0.0, lon=0.0),
+                "gnss_nan_covariance": fix(99.91, np.full((3, 3), math.nan)),
+                "gnss_negative_covariance": fix(99.92, -good),
+                "gnss_indefinite_covariance": fix(99.93, [[1e-4, 1e-3, 0], [1e-3, 1e-4, 0], [0, 0, 1e-4]]),
+                "gnss_stamp_off_reference": fix(1100.0, good)}
     for name, msg in rejected.items():
         node.on_fix(msg)
         assert node.pending_fix is None, name
-        assert node.events.totals.get(name) == 1, name
+        assert node.guard.totals.get(name) == 1, name
     assert node.plane is None                       # the NO_FIX fix did not become the datum
-    node.on_fix(fix(99.94, np.zeros((3, 3))))       # all zero: not given -> the default
+    node.on_fix(fix(99.935, np.zeros((3, 3))))      # all zero: not given -> the default
     assert np.allclose(node.pending_fix.pos_cov_enu, np.eye(3) * node.default_fix_sigma ** 2)
-    node.on_fix(fix(99.95, np.diag([1e-9, 1e-4, 1e-4])))   # tiny: floored
-    assert np.allclose(np.diag(node.pending_fix.pos_cov_enu), [node.min_fix_sigma ** 2, 1e-4, 1e-4])
-    assert node.events.totals.get("fix_zero_covariance") == 1 and node.events.totals.get("fix_floored_covariance") == 1
+    node.on_fix(fix(99.94, good * 2))               # a good one, then all zero and tiny ones: that one
+    for t, cov in ((99.945, np.zeros((3, 3))), (99.95, np.diag([1e-9, 1e-4, 1e-4]))):
+        node.on_fix(fix(t, cov))
+        assert np.allclose(node.pending_fix.pos_cov_enu, good * 2)
+    assert node.guard.totals.get("gnss_zero_covariance") == 1 and node.guard.totals["gnss_floored_covariance"] == 2
 
     for name, cov in (("vel_nan_covariance", np.full((3, 3), math.nan)), ("vel_negative_covariance", -good)):
-        node.on_vel(vel(99.96 + 0.001 * len(node.events.totals), cov))
+        node.on_vel(vel(99.96 + 0.001 * len(node.guard.totals), cov))
         assert not node.velocities, name
-        assert node.events.totals.get(name) == 1, name
+        assert node.guard.totals.get(name) == 1, name
     node.on_vel(vel(99.98, np.zeros((3, 3))))
     node.on_vel(vel(99.99, np.diag([1e-4, 0.0, 1e-4])))
     assert np.allclose(node.velocities[0][2], np.eye(3) * node.default_vel_sigma ** 2)
     assert np.allclose(np.diag(node.velocities[1][2]), [1e-4, node.min_vel_sigma ** 2, 1e-4])
 
     level, message, values = node.check_inputs()
-    assert level == WARN and "fix_nan_covariance 1" in message and values["recent_fix_no_fix"] == 1
-    clock.set_ros_time_override(Time(seconds=106))  # the window has passed: the present is clean again
-    node.imu_time = 106.0                           # (and the IMU still alive)
-    level, message, values = node.check_inputs()
-    assert level == OK and values["total_fix_no_fix"] == 1 and not any(k.startswith("recent_") for k in values)
+    assert level == WARN and "gnss_nan_covariance 1" in message and values["recent_gnss_no_fix"] == 1
+    clock.set_ros_time_override(Time(seconds=106))  # the window has passed (IMU time): the old problems are gone
+    for k in range(4):                              # (a step of 6 s is believed after 3 more stamps)
+        imu.header.stamp = to_stamp(106.0 + 0.01 * k)
+        imu.angular_velocity.x = 1e-3 * k
+        node.on_imu(imu)
+    level, message, values = node.check_inputs()   # what is left: no fix for 6 s, overdue
+    assert values["total_gnss_no_fix"] == 1 and [k for k in values if k.startswith("recent_")] == \
+        ["recent_gnss_overdue"] and level == WARN and "gnss_overdue 1" in message
     node.destroy_node()

@@ -8,11 +8,15 @@ both are known. The heading may be unknown: the filter initialises when driving 
 messages are stamped at their epoch and arrive late: the core applies them against its history. A fix and the
 /gnss/vel of the same epoch are fused together.
 
-Input guards (agnav_common.input_guard): one StreamClock per stream (IMU, fix, vel; lone future stamps never move a
-clock, GNSS stamps must lie within [IMU time - history, IMU time + max_gnss_lead]); fix/velocity covariances are
-checked (NaN/negative/indefinite: rejected; tiny: floored; all zero: the default); NO_FIX fixes are never used.
-IMU gaps are bridged by the core with covariance growth. /diagnostics describe the present: rejections of the last
-`diagnostic_window` s (EventWindow on the node clock) and the IMU age; totals are reported as values.
+Input checks are the navigation front end's (agnav_fusion.front_end.InputGuard, shared with the navigation sensor
+module): finite values, one clock per stream (imu, gnss = fix, vel; lone future stamps never move a clock, GNSS stamps
+within [IMU time - history, IMU time + max_gnss_lead]), fix covariances (NaN/negative/indefinite: rejected; zero or
+tiny: the receiver's last good one, else floored; all zero before any good one: the default), velocity covariances,
+a stuck IMU (stuck_samples bit-identical gyro + accelerometer readings: dropped from there, bridged as a gap).
+INS-specific here: NO_FIX fixes are never used, a fix and its velocity are paired by epoch, IMU gaps are bridged by
+the core with covariance growth. /diagnostics describe the present (rejections of the guard's recent window, IMU
+time; the IMU age) and are published at once (at most every 0.25 s) on a new problem, e.g. a fix overdue for
+gnss_overdue_periods fix periods or no IMU sample for imu_overdue_periods IMU periods at a fix's epoch.
 """
 import dataclasses
 import math
@@ -21,7 +25,7 @@ import numpy as np
 from agnav_common.diagnostics import ERROR, OK, WARN, Diagnostics
 from agnav_common.frames import quaternion_from_euler
 from agnav_common.geodesy import LocalTangentPlane
-from agnav_common.input_guard import EventWindow, StreamClock, StreamClockSettings, covariance, finite
+from agnav_common.input_guard import StreamClockSettings, finite
 from agnav_common.node_main import main_for
 from agnav_common.qos import LATCHED_QOS, PUBLISHER_QOS, SENSOR_QOS
 from agnav_common.stamps import to_sec, to_stamp
@@ -33,6 +37,7 @@ from rclpy.node import Node
 from scipy.spatial.transform import Rotation
 from sensor_msgs.msg import Imu, NavSatFix, NavSatStatus
 
+from agnav_fusion.front_end import InputGuard, InputGuardSettings, Overdue, Urgent
 from agnav_fusion.ins import GnssSample, InsEkf, InsEkfSettings
 from agnav_fusion.ins.frames import Mounts, base_link_state
 from agnav_fusion.navigation_output import map_datum_message, pose_transforms
@@ -68,18 +73,23 @@ class InsNode(Node):
         self.imu_timeout = p("imu_timeout", 0.5)          # s without a usable IMU sample -> WARN
         self.default_fix_sigma = p("default_fix_sigma", 1.0)   # m, fixes without a covariance (unknown / all zero)
         self.default_vel_sigma = p("default_vel_sigma", 0.05)  # m/s, velocities without a covariance (all zero)
-        self.min_fix_sigma = p("min_fix_sigma", 0.01)     # m, smaller (zero) fix variances are raised to this
-        self.min_vel_sigma = p("min_vel_sigma", 0.01)     # m/s, the same for velocities
+        min_fix_sigma = p("min_fix_sigma", 0.01)          # m, a smaller fix sigma is not believed (see InputGuard)
+        self.min_vel_sigma = p("min_vel_sigma", 0.01)     # m/s, smaller velocity variances are raised to this
         imu_jump, gnss_jump = p("imu_max_jump", 0.5), p("gnss_max_jump", 1.0)  # s, lone larger steps rejected
-        self.events = EventWindow(p("diagnostic_window", 5.0))   # s of rejections the diagnostics describe
+        window = p("diagnostic_window", 5.0)              # s (IMU time) of rejections the diagnostics describe
+        stuck = p("stuck_samples", 10)                    # bit-identical IMU readings in a row: stuck (0: off)
+        self.gnss_overdue = Overdue(p("gnss_overdue_periods", 1.5))   # fix periods without a fix: gnss_overdue
+        self.imu_overdue = Overdue(p("imu_overdue_periods", 20.0))    # IMU periods behind a fix epoch: imu_overdue
         self.settings = declare_ins_settings(self, InsEkfSettings())
         self.settings.initial_heading = math.pi / 2 - initial_yaw
         self.settings.initial_heading_sigma = initial_yaw_sigma if initial_yaw_sigma > 0 else math.inf
         # GNSS epochs are checked against the IMU time: at most `max_gnss_lead` ahead, within the history behind
-        gnss_clock = dict(max_jump=gnss_jump, max_lag=self.settings.history, max_lead=self.settings.max_gnss_lead)
-        self.clocks = {"imu": StreamClock(StreamClockSettings(max_jump=imu_jump)),
-                       "fix": StreamClock(StreamClockSettings(**gnss_clock)),
-                       "vel": StreamClock(StreamClockSettings(**gnss_clock))}
+        gnss_clock = StreamClockSettings(max_jump=gnss_jump, max_lag=self.settings.history,
+                                         max_lead=self.settings.max_gnss_lead)
+        self.guard = InputGuard(InputGuardSettings(min_fix_sigma=min_fix_sigma, diagnostic_window=window,
+                                                   stuck_samples=stuck),
+                                clocks={"imu": StreamClockSettings(max_jump=imu_jump), "gnss": gnss_clock,
+                                        "vel": gnss_clock})
         self.ekf = None
         self.mounts = None
         self.plane = None
@@ -104,6 +114,8 @@ class InsNode(Node):
         self.diag = Diagnostics(self, "ins")
         self.diag.add("inputs", self.check_inputs)
         self.diag.add("filter", self.check_filter)
+        self.urgent = Urgent()
+        self.guard.on_problem = self.on_problem
 
     # ---- mounts and datum ---------------------------------------------------------------------------
     def ready(self):
@@ -126,33 +138,28 @@ class InsNode(Node):
 
     # ---- input guards -------------------------------------------------------------------------------
     def now(self):
-        """Node time [s] (the bag's /clock in a replay): the time base of the diagnostic windows."""
+        """Node time [s] (the bag's /clock in a replay): IMU age and the rate limit of urgent diagnostics."""
         return self.get_clock().now().nanoseconds * 1e-9
 
-    def event(self, name):
-        self.events.add(name, self.now())
+    def on_problem(self, event):
+        """A new input problem is on /diagnostics at once (at most every 0.25 s of node time)."""
+        if self.urgent.due(self.now()):
+            self.diag.publish()
 
     def imu_clock(self):
         """The IMU time GNSS stamps are checked against (None before the first IMU sample)."""
-        return self.clocks["imu"].last
+        return self.guard.clocks["imu"].last
 
-    def checked_cov(self, stream, cov, default_sigma, min_sigma):
-        """A fused input's 3x3 covariance: symmetric PSD, variances floored; None (rejected) for NaN, negative or
-        indefinite ones; all zero = not given: the default. Every problem is an event on the diagnostics."""
-        cov = np.asarray(cov, dtype=float).reshape(3, 3)
-        if finite(cov) and not cov.any():
-            self.event(f"{stream}_zero_covariance")
-            return np.eye(3) * default_sigma ** 2
-        checked, problem = covariance(cov, min_sigma ** 2)
-        if problem:
-            self.event(f"{stream}_{problem}")
-        return checked
+    def gnss_arrived(self, t):
+        """A GNSS message of epoch t passed the stamp checks: is the IMU overdue at that epoch?"""
+        if self.imu_overdue.check(t):
+            self.guard.count("imu_overdue")
 
     def filter_events(self):
-        """EKF rejections since the last call -> events: NaN samples, stale epochs (inputs), gating (filter_*)."""
+        """EKF rejections since the last call -> events: stale epochs (inputs), gating (filter_*)."""
         for name, count in self.ekf.stats["rejected"].items():
             for _ in range(count - self.filter_seen.get(name, 0)):     # input-level ones keep their name
-                self.event(name if name.startswith(("imu_", "gnss_")) else f"filter_{name}")
+                self.guard.count(name if name.startswith(("imu_", "gnss_")) else f"filter_{name}")
             self.filter_seen[name] = count
 
     # ---- inputs ---------------------------------------------------------------------------------------
@@ -161,22 +168,24 @@ class InsNode(Node):
             self.counters["no_accel"] += 1
             return
         t = to_sec(msg.header.stamp)
-        reason = self.clocks["imu"].check(t)
-        if reason is not None:
-            self.event(f"imu_{reason}")
+        w, a = msg.angular_velocity, msg.linear_acceleration
+        gyro, accel = np.array([w.x, w.y, w.z]), np.array([a.x, a.y, a.z])
+        if not self.guard.accept("imu", t, gyro, accel):    # a stuck IMU is dropped here: bridged as a gap
             return
+        self.imu_overdue.arrived(t)
+        if self.gnss_overdue.check(t):
+            self.guard.count("gnss_overdue")
         if not self.ready():
             return
         self.counters["imu"] += 1
         r = self.mounts.imu_to_frd
-        w, a = msg.angular_velocity, msg.linear_acceleration
-        reason = self.ekf.add_imu(t, r @ np.array([w.x, w.y, w.z]), r @ np.array([a.x, a.y, a.z]))
+        reason = self.ekf.add_imu(t, r @ gyro, r @ accel)
         self.filter_events()
         if reason is not None:
             return
         self.imu_time = self.now()
         if self.ekf.last_gap > 0.0:
-            self.event("imu_gap_bridged")
+            self.guard.count("imu_gap_bridged")
         var = np.diag(np.array(msg.angular_velocity_covariance).reshape(3, 3))
         if finite(var) and np.all(var >= 0):
             self.rate_var = np.diag(r @ np.diag(var) @ r.T)
@@ -191,12 +200,11 @@ class InsNode(Node):
         t = to_sec(msg.header.stamp)
         v = msg.twist.twist.linear
         vel = np.array([v.x, v.y, v.z])
-        reason = self.clocks["vel"].check(t, self.imu_clock()) or (None if finite(vel) else "nan")
-        if reason is not None:
-            self.event(f"vel_{reason}")
+        if not self.guard.accept("vel", t, vel, ref=self.imu_clock()):
             return
-        cov = self.checked_cov("vel", np.array(msg.twist.covariance).reshape(6, 6)[:3, :3], self.default_vel_sigma,
-                               self.min_vel_sigma)
+        self.gnss_arrived(t)
+        cov = self.guard.velocity_covariance(np.array(msg.twist.covariance).reshape(6, 6)[:3, :3],
+                                             self.min_vel_sigma ** 2, self.default_vel_sigma ** 2)
         if cov is None:
             return
         self.velocities = (self.velocities + [(t, vel, cov)])[-10:]
@@ -205,22 +213,22 @@ class InsNode(Node):
 
     def on_fix(self, msg):
         t = to_sec(msg.header.stamp)
-        reason = self.clocks["fix"].check(t, self.imu_clock())    # a NO_FIX message still marks the stream time
-        if reason is None and (msg.status.status < NavSatStatus.STATUS_FIX or msg.latitude == msg.longitude == 0.0):
-            reason = "no_fix"           # never a position, never the datum
-        if reason is None and not finite(msg.latitude, msg.longitude, msg.altitude):
-            reason = "nan"
-        if reason is not None:
-            self.event(f"fix_{reason}")
+        if not self.guard.accept("gnss", t, msg.latitude, msg.longitude, msg.altitude, ref=self.imu_clock()):
+            return                      # (a NO_FIX message still marks the stream time)
+        self.gnss_arrived(t)
+        if msg.status.status < NavSatStatus.STATUS_FIX or msg.latitude == msg.longitude == 0.0:
+            self.guard.count("gnss_no_fix")     # never a position, never the datum
             return
+        default = np.eye(3) * self.default_fix_sigma ** 2
         cov = np.array(msg.position_covariance).reshape(3, 3)
         if msg.position_covariance_type == NavSatFix.COVARIANCE_TYPE_UNKNOWN:
-            cov = np.eye(3) * self.default_fix_sigma ** 2
+            cov = default
         elif msg.position_covariance_type == NavSatFix.COVARIANCE_TYPE_DIAGONAL_KNOWN:
             cov = np.diag(np.diag(cov))
-        cov = self.checked_cov("fix", cov, self.default_fix_sigma, self.min_fix_sigma)
+        cov = self.guard.fix_covariance(cov, default)
         if cov is None or not self.ready():
             return
+        self.gnss_overdue.arrived(t, self.imu_clock())
         if self.plane is None:
             self.set_datum(msg.latitude, msg.longitude, msg.altitude)
         if self.pending_fix is not None:
@@ -247,7 +255,7 @@ class InsNode(Node):
             return
         s = base_link_state(sol, self.mounts, self.plane, self.rate_var)
         if not (s.finite() and positive_definite(s.pose_cov) and positive_definite(s.twist_cov)):
-            self.event("output_invalid")
+            self.guard.count("output_invalid")
             return
         stamp = to_stamp(s.t)
         quat = quaternion_from_euler(*s.rpy)
@@ -280,15 +288,15 @@ class InsNode(Node):
     def check_inputs(self):
         """Stream health now: rejections of the last `diagnostic_window` s (totals as values), IMU age."""
         now = self.now()
-        recent = {k: v for k, v in self.events.recent(now).items() if not k.startswith("filter_")}
-        values = dict(self.counters, **{f"total_{k}": v for k, v in self.events.totals.items()},
+        recent = {k: v for k, v in self.guard.recent().items() if not k.startswith("filter_")}
+        values = dict(self.counters, **{f"total_{k}": v for k, v in self.guard.totals.items()},
                       **{f"recent_{k}": v for k, v in recent.items()})
         if self.counters["no_accel"]:
             return ERROR, "/imu/data_raw has no accelerometers (linear_acceleration_covariance[0] == -1): " \
                           "the INS needs them", values
         if self.ekf is None:
             return WARN, f"waiting for TF {self.frames['base']}->{self.frames['imu']}/{self.frames['gnss']}", values
-        problems = [f"{sum(recent.values())} input problems in the last {self.events.window:g} s ("
+        problems = [f"{sum(recent.values())} input problems in the last {self.guard.events.window:g} s ("
                     + ", ".join(f"{k} {v}" for k, v in sorted(recent.items())) + ")"] if recent else []
         age = now - self.imu_time if self.imu_time is not None else math.inf
         values["imu_age_s"] = age
@@ -304,12 +312,12 @@ class InsNode(Node):
         age = h.get("gnss_age_s", math.inf)
         h["mode"] = "uninitialized" if self.ekf.mech is None else (
             "ins_only_outage" if age > self.gnss_timeout else "gnss_aided")
-        recent = {k[len("filter_"):]: v for k, v in self.events.recent(self.now()).items() if k.startswith("filter_")}
+        recent = {k[len("filter_"):]: v for k, v in self.guard.recent().items() if k.startswith("filter_")}
         h.update({f"recent_rejected_{k}": v for k, v in recent.items()})
         level = OK if h["alignment"] == "aligned" and h["mode"] == "gnss_aided" and not recent else WARN
         message = f"{h['alignment']}, {h['mode']}"
         if recent:
-            message += f", rejected in the last {self.events.window:g} s: " + \
+            message += f", rejected in the last {self.guard.events.window:g} s: " + \
                 ", ".join(f"{k} {v}" for k, v in sorted(recent.items()))
         return level, message, h
 

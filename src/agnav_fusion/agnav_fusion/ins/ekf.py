@@ -7,7 +7,6 @@ gating, Joseph-form update with closed-loop correction, outage coasting and heal
 """
 import math
 from collections import deque
-from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.stats import chi2
@@ -16,54 +15,10 @@ from . import earth, error_model as em, feedback
 from .lever_arm import antenna_to_imu_position
 from .measurements import ENU_TO_NED, GnssPosition, GnssVelocity, Snapshot, c_axes, ned_to_c
 from .mechanization import T, InsState, Mechanization, c_cbar_ned, roll_pitch_from_accel
+from .settings import InsEkfSettings, NavSolution  # noqa: F401 (re-exported)
 
 UNINITIALIZED, ALIGNING, ALIGNED = "uninitialized", "aligning", "aligned"
 MAX_GAP_STEPS = 1000        # sub-steps bridging one IMU gap at most
-
-
-@dataclass
-class InsEkfSettings:
-    """Filter parameters ([IMPL] values for a consumer MEMS IMU; SPEC gives none for §7)."""
-
-    error: em.ErrorModelSettings = field(default_factory=em.ErrorModelSettings)
-    lever_gnss_frd: tuple = (0.0, 0.0, 0.0)    # IMU -> antenna in body FRD [m]
-    initial_heading: float = 0.0               # best guess, clockwise from north [rad]
-    initial_heading_sigma: float = math.inf    # inf: unknown heading (γ/β span the full circle)
-    tilt_sigma: float = math.radians(2.0)      # roll/pitch from accelerometers while driving
-    velocity_sigma: float = 0.1                # initial velocity (side-slip, speed noise) [m/s]
-    accel_bias_sigma0: float = 0.1             # [m/s^2]
-    gyro_bias_sigma0: float = math.radians(0.2)  # [rad/s]
-    level_window: float = 1.0                  # accelerometer averaging for roll/pitch [s]
-    align_speed: float = 0.5                   # moving: initial velocity along the body x axis [m/s]
-    aligned_heading_sigma: float = math.radians(1.0)
-    gate_probability: float = 0.9999           # chi-square innovation gate
-    reinit_after: float = 10.0                 # reinitialise after this long of rejected GNSS [s]
-    history: float = 2.0                       # latency compensation window [s]
-    gap_accel_sigma: float = 1.0               # unknown acceleration while IMU samples are missing [m/s^2]
-    gap_rate_sigma: float = 0.1                # unknown rate (e.g. a turn begun) over an IMU gap [rad/s]
-    max_gnss_lead: float = 5.0                 # GNSS epochs further ahead of the IMU time are rejected [s]
-    covariance_interval: float = 0.05          # P propagated at this period (Φ from the latest F) [s];
-                                               # 0 = every IMU sample; always brought current before updates
-
-
-@dataclass
-class NavSolution:
-    """IMU-point solution: NED velocity, heading clockwise from north, FRD rates, ENU covariances."""
-
-    t: float
-    lat: float
-    lon: float
-    h: float
-    v_ned: np.ndarray
-    roll: float
-    pitch: float
-    heading: float
-    omega_b: np.ndarray
-    c_b_ned: np.ndarray
-    pos_cov_enu: np.ndarray
-    vel_cov_enu: np.ndarray
-    att_var: np.ndarray          # roll, pitch, heading [rad^2]
-    gyro_bias_var: np.ndarray    # FRD gyro bias estimate variances [(rad/s)^2]
 
 
 class InsEkf:
@@ -88,6 +43,7 @@ class InsEkf:
         self._pending = []
         self._gates = {}
         self._corr = np.zeros(6)          # accumulated corrections (lat, lon, h, v_ned)
+        self._fix_drift_cov = np.zeros((3, 3))  # slowly drifting part of the latest fused fix's covariance (ENU)
         self._last_gnss_t = None
         self._last_accept_t = None
         self._first_reject_t = None
@@ -177,6 +133,7 @@ class InsEkf:
         pos = np.zeros((3, 3))
         pos[:2, :2] = a @ self.p[:2, :2] @ a.T
         pos[2, 2] = self.p[em.H, em.H]
+        pos += self._fix_drift_cov
         m = ENU_TO_NED.T @ ned_to_c(st.alpha).T       # C -> ENU
         iv = list(em.V3)
         tilt = 0.5 * (self.p[em.TX, em.TX] + self.p[em.TY, em.TY])
@@ -364,6 +321,8 @@ class InsEkf:
             return
         self._first_reject_t = None
         self._last_accept_t = self.t
+        if accepted[0].name == self.models[0].name:
+            self._fix_drift_cov = self.s.gnss_correlated_fraction * np.asarray(g.pos_cov_enu, dtype=float)
         z = np.concatenate([m.z for m in accepted])
         h = np.vstack([m.h for m in accepted])
         r = np.zeros((len(z), len(z)))
