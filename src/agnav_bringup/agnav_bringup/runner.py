@@ -1,7 +1,9 @@
 """`agnav run`: start a graph config in one process (one executor) or one OS process per node.
 
 The bag player and recorder always live in the runner's process; configured nodes join them there, or
-run as child processes (`--processes`, the same graph over DDS). SIGINT/SIGTERM stop everything (exit 0).
+run as child processes (`--processes`, the same graph over DDS). A replay at rate 0 in one process is
+deterministic: the nodes talk through agnav_common.local_bus, the player publishes the bag in log-time order and
+each message reaches the whole graph (and the recorder) before the next one, timers fire at their sim time. SIGINT/SIGTERM stop everything (exit 0).
 Exit 2 with one line for a config or node that cannot start (YAML error, unknown key or parameter, bad value);
 exit 1 with one line when a node raises while running or a child process dies.
 """
@@ -22,12 +24,13 @@ from agnav_bringup.graph_config import REPO_ROOT, ConfigError, load_config
 os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")  # DDS never leaves this host
 
 import rclpy  # noqa: E402  (after the discovery range is fixed)
-from rclpy.executors import ExternalShutdownException  # noqa: E402
+from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor  # noqa: E402
 from rclpy.experimental import EventsExecutor  # noqa: E402
 from rclpy.parameter import Parameter  # noqa: E402
 
 from agnav_common.bagio import unfinished  # noqa: E402
 from agnav_common.frames import quaternion_from_euler  # noqa: E402
+from agnav_common.local_bus import LocalBus  # noqa: E402
 from agnav_common.node_main import (PARENT_ENV, ParameterNameError, check_parameter_names,  # noqa: E402
                                     init_without_signal_handlers, one_line, stop_on_signals)
 from agnav_common.tf import StaticTransformPublisher, make_transform  # noqa: E402
@@ -40,6 +43,7 @@ from agnav_drivers.bag_recorder_node import BagRecorderNode  # noqa: E402
 # on; filters that fuse several topics then see skewed inputs (nsm: horizontal 14.9 cm instead of 7.7). A paced
 # replay that the nodes keep up with avoids it (nsm at 5x real time over processes: same errors as one process).
 PROCESSES_RATE = 5.0
+BATCH = 256  # deterministic replay: bag messages between checks for signals, --duration, services, wall timers
 
 
 def parse_args(argv):
@@ -56,6 +60,11 @@ def parse_args(argv):
                     help="bag topic not to replay (e.g. outputs of an earlier run that the graph publishes again)")
     ap.add_argument("--record", metavar="OUT", help="record to this rosbag2 folder (an earlier finished recording there is replaced)")
     ap.add_argument("--processes", action="store_true", help="one OS process per node")
+    transport = ap.add_mutually_exclusive_group()
+    transport.add_argument("--dds", action="store_true",
+                           help="rate 0 in one process: replay over DDS with flow control, not the deterministic bus")
+    transport.add_argument("--publish", action="store_true",
+                           help="deterministic replay: also publish every message on DDS (for a live viewer)")
     ap.add_argument("--duration", type=float, default=0.0, help="stop after this many seconds (0: bag end / SIGINT)")
     ap.add_argument("--no-eval", action="store_true", help="skip the accuracy evaluation after a recorded replay")
     ap.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -71,11 +80,18 @@ def replay_rate(args):
     return PROCESSES_RATE if args.processes else 0.0
 
 
-def static_transform_node(config):
-    """A tiny node publishing the config's static mounts on /tf_static (None when there are none)."""
+def deterministic(args, bag):
+    """Replay through the in-process bus: a bag at rate 0, nodes in this process, --dds not given."""
+    return bag is not None and not args.processes and not args.dds and replay_rate(args) == 0.0
+
+
+def static_transform_node(config, use_sim_time=False):
+    """A tiny node publishing the config's static mounts on /tf_static (None when there are none); on sim time
+    (deterministic replay) they are stamped 0, before the bag's clock starts."""
     if not config.static_transforms:
         return None
-    node = rclpy.create_node("agnav_static_transforms")
+    node = rclpy.create_node("agnav_static_transforms",
+                             parameter_overrides=[Parameter("use_sim_time", value=True)] if use_sim_time else [])
     publisher = StaticTransformPublisher(node)
     publisher.send([make_transform(t["parent"], t["child"], node.get_clock().now().to_msg(),
                                    t.get("xyz", [0, 0, 0]), quaternion_from_euler(*t.get("rpy", [0, 0, 0])))
@@ -187,12 +203,13 @@ def run(args):
     stopping = stop_on_signals()  # Ctrl-C / SIGTERM: leave the loop, close everything, exit 0
     nodes, children, player, recorder, error, status = [], None, None, None, None, 0
     workdir = tempfile.mkdtemp(prefix="agnav_run_")
+    bus = LocalBus(publish_dds=args.publish).install() if deterministic(args, bag) else None
     try:
         if args.processes:
             children = ChildProcesses(config.nodes, use_sim_time, workdir)
         else:
             build_nodes(config, use_sim_time, nodes)
-        static = static_transform_node(config)
+        static = static_transform_node(config, use_sim_time=bus is not None)
         if static is not None:
             nodes.append(static)
         if children:
@@ -206,7 +223,8 @@ def run(args):
                     Parameter("progress", value=not args.quiet),
                     Parameter("cache_dir", value=str(REPO_ROOT / "build" / "bag_cache")),
                     Parameter("start_delay", value=2.0 if args.processes else 0.5),
-                    Parameter("min_subscribers", value=1 if record is not None else 0)])
+                    Parameter("min_subscribers", value=1 if record is not None else 0),
+                    Parameter("external_drive", value=bus is not None), Parameter("use_sim_time", value=bus is not None)])
             except Exception as exc:  # no such bag, an empty bag, nothing to replay
                 raise ConfigError(f"replay: {one_line(exc)}") from exc
             nodes.append(player)
@@ -215,16 +233,23 @@ def run(args):
                 Parameter("output", value=str(record)), Parameter("topics", value=config.record or [""]),
                 Parameter("use_sim_time", value=use_sim_time)])
             nodes.append(recorder)
-        executor = EventsExecutor()
+        executor = EventsExecutor() if bus is None else SingleThreadedExecutor()  # bus: services, wall timers
         for node in nodes:
             executor.add_node(node)
-        started, finished_at = time.monotonic(), None
+        started, finished_at, next_spin = time.monotonic(), None, 0.0
         print(f"agnav run: {config.path.name}: {len(config.nodes)} node(s)"
-              f"{' as processes' if args.processes else ''}"
+              f"{' as processes' if args.processes else ''}{' deterministic' if bus else ''}"
               f"{f', replaying {bag}' if bag else ''}{' on sim time (/clock)' if use_sim_time and not bag else ''}"
               f"{f', recording {record}' if record else ''}", flush=True)
         while rclpy.ok() and not stopping:
-            executor.spin_once(timeout_sec=0.05)
+            if bus is not None:  # the player drives the whole graph; the executor only between batches
+                if not player.play(BATCH):
+                    break
+                if time.monotonic() >= next_spin:
+                    executor.spin_once(timeout_sec=0.0)
+                    next_spin = time.monotonic() + 0.1
+            else:
+                executor.spin_once(timeout_sec=0.05)
             failed = children.failure() if children else None
             if failed:
                 error, status = failed
@@ -249,6 +274,8 @@ def run(args):
             children.stop()
         for node in reversed(nodes):
             node.destroy_node()
+        if bus is not None:
+            bus.uninstall()
         rclpy.try_shutdown()
         shutil.rmtree(workdir, ignore_errors=True)
         for sig in (signal.SIGINT, signal.SIGTERM):  # the evaluation below is interruptible again

@@ -5,9 +5,12 @@ rate > 0 keeps the bag's timing scaled by rate; rate 0 publishes as fast as the 
 EventsExecutor's FIFO events, every earlier message has then been handled by every node), and a message
 that a lagging subscriber in another process cannot take yet is held and retried (see REPLAY_QOS), so a slow
 node slows the replay instead of losing data.
+`external_drive`: no timer and no flow control; the owner calls play() (agnav run's deterministic replay, where
+agnav_common.local_bus delivers every message to the whole graph before publish() returns).
 Publishes /clock from the bag timeline (a recorded /clock is not replayed) and /tf_static transient-local.
 `progress` shows a tqdm bar on stderr when it is a terminal (nothing in files and CI logs).
 """
+import itertools
 import sys
 import time
 
@@ -20,7 +23,6 @@ from tqdm import tqdm
 from agnav_common.diagnostics import OK, WARN, Diagnostics
 from agnav_common.node_main import main_for
 from agnav_common.qos import LATCHED_QOS, SENSOR_QOS
-from agnav_common.stamps import to_stamp
 from agnav_drivers.bag_source import BagSource
 from agnav_drivers.ros_types import message_class
 
@@ -33,13 +35,15 @@ REPLAY_QOS = QoSProfile(history=HistoryPolicy.KEEP_ALL, reliability=ReliabilityP
 class BagPlayerNode(Node):
     def __init__(self, **kwargs):
         super().__init__("bag_player", **kwargs)
+        self.source, self._bar = None, None  # destroy_node works on a node whose construction failed
         p = {name: self.declare_parameter(name, default).value for name, default in (
             ("bag", ""), ("rate", 1.0), ("topics", [""]), ("remap", [""]), ("start_offset", 0.0),
             ("loop", False), ("clock", True), ("progress", False), ("window", 20), ("start_delay", 1.0),
-            ("min_subscribers", 0), ("cache_dir", ""), ("exclude", [""]))}
+            ("min_subscribers", 0), ("cache_dir", ""), ("exclude", [""]), ("external_drive", False))}
         if not p["bag"]:
             raise ValueError("parameter 'bag' (path of a rosbag2 folder, .mcap, .db3 or ROS 1 .bag) is required")
         self.rate = float(p["rate"])
+        self.external = bool(p["external_drive"])
         self.window = int(p["window"])
         self.loop = bool(p["loop"])
         self.progress = bool(p["progress"])
@@ -64,7 +68,7 @@ class BagPlayerNode(Node):
             out = remap.get(topic, topic)
             qos = LATCHED_QOS if topic in LATCHED_TOPICS else REPLAY_QOS
             self.publishers_[topic] = self.create_publisher(cls, out, qos)
-            if self.rate == 0.0:  # probes: count what the graph has received
+            if self.rate == 0.0 and not self.external:  # probes: count what the graph has received
                 self.create_subscription(cls, out, self._on_probe, SENSOR_QOS, raw=True)
         self.clock_pub = self.create_publisher(Clock, "/clock", 10) if p["clock"] else None
         self.finished = False
@@ -74,14 +78,14 @@ class BagPlayerNode(Node):
         self._last_clock = -1
         self._pending = None
         self._last_progress = 0.0
-        self._bar = None
         # Start once every topic has min_subscribers matched (probe and recorder count) and start_delay
         # has passed, so that subscribers in other processes have discovered us; give up waiting after 10 s.
         self.min_subscribers = int(p["min_subscribers"]) + (1 if self.rate == 0.0 else 0)
         self._ready_at = time.monotonic() + float(p["start_delay"])
         self.diagnostics = Diagnostics(self, "bag_player")
         self.diagnostics.add("replay", self._diagnose)
-        self.create_timer(0.002, self._tick)
+        if not self.external:
+            self.create_timer(0.002, self._tick)
 
     def _on_probe(self, _):
         self.received += 1
@@ -139,11 +143,28 @@ class BagPlayerNode(Node):
             budget -= 1
         self._show_progress()
 
+    def play(self, count):
+        """External drive: publish the next `count` bag messages (with /clock); False once the bag has ended."""
+        if self._iter is None:
+            self._check_sole_publisher()
+            self._restart()
+        for msg in itertools.islice(self._iter, count):
+            if self._t0 is None:
+                self._t0 = msg.stamp_ns
+            self._publish(msg)
+            count -= 1
+        self._show_progress()
+        if count > 0:
+            self._finish()
+        return count == 0
+
     def _publish(self, msg):
         """Publish one bag message (and /clock); False when the writer is full and it must be retried."""
         if self.clock_pub is not None and msg.stamp_ns > self._last_clock:
             self._last_clock = msg.stamp_ns
-            self.clock_pub.publish(Clock(clock=to_stamp(msg.stamp_ns * 1e-9)))
+            clock = Clock()
+            clock.clock.sec, clock.clock.nanosec = divmod(msg.stamp_ns, 1_000_000_000)  # the bag time exactly
+            self.clock_pub.publish(clock)
         pub = self.publishers_.get(msg.topic)
         if pub is not None:
             try:
@@ -180,7 +201,8 @@ class BagPlayerNode(Node):
 
     def destroy_node(self):
         self._close_bar()
-        self.source.close()
+        if self.source is not None:
+            self.source.close()
         return super().destroy_node()
 
 

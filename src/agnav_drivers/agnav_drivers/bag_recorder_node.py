@@ -4,6 +4,7 @@ Messages are stored raw with their message definitions (Foxglove and `ros2 bag` 
 time-stamped with the node clock (bag time under use_sim_time). Topics appearing later are picked up.
 Every `flush_period` seconds (wall time) the messages so far go to disk as a complete mcap chunk: a recorder
 killed without closing (SIGKILL, power loss) leaves a folder that `agnav recover DIR` finishes.
+On an installed agnav_common.local_bus the graph queries see the bus, and new topics are subscribed at once.
 """
 import time
 from pathlib import Path
@@ -14,7 +15,8 @@ from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rosbags.rosbag2 import StoragePlugin, Writer
 
-from agnav_common.bagio import flush_recording, typestore
+from agnav_common import local_bus
+from agnav_common.bagio import close_recording, flush_recording, typestore, write_message
 from agnav_common.diagnostics import OK, Diagnostics
 from agnav_common.node_main import main_for
 from agnav_drivers.ros_types import message_class
@@ -41,7 +43,10 @@ class BagRecorderNode(Node):
         self.closed = False
         self.last_write = None  # monotonic time of the last message written (drain detection)
         self._early = []  # messages received before the (sim) clock started, written at its first tick
+        # on a local bus with sim time the node clock is the bus time: read it without a clock call per message
+        self._bus_time = local_bus.current() is not None and self.get_clock().ros_time_is_active
         self._discover()
+        local_bus.on_new_topic(self._discover)  # in-process bus: subscribe before the first message, not 0.2 s later
         steady = Clock(clock_type=ClockType.STEADY_TIME)  # wall time: not stalled by a paused /clock
         self.create_timer(0.2, self._discover, clock=steady)
         self.create_timer(flush_period, self.flush, clock=steady)
@@ -77,15 +82,16 @@ class BagRecorderNode(Node):
     def _write(self, topic, data):
         if self.closed:
             return
-        now = self.get_clock().now().nanoseconds
+        bus = local_bus.current()
+        now = bus.now if bus is not None and self._bus_time else self.get_clock().now().nanoseconds  # the same
         if now == 0:
             self._early.append((topic, data))
             return
         for early_topic, early_data in self._early:
-            self.writer.write(self.connections[early_topic], now, early_data)
+            write_message(self.writer, self.connections[early_topic], now, early_data)
             self.counts[early_topic] += 1
         self._early.clear()
-        self.writer.write(self.connections[topic], now, data)
+        write_message(self.writer, self.connections[topic], now, data)
         self.counts[topic] += 1
         if topic != "/diagnostics":
             self.last_write = time.monotonic()
@@ -93,13 +99,13 @@ class BagRecorderNode(Node):
     def flush(self):
         """Write what has been recorded so far to disk (a complete chunk)."""
         if not self.closed:
-            flush_recording(self.writer)
+            flush_recording(self.writer, background=True)
 
     def close(self):
         """Finish the bag file (also done on node destruction)."""
         if not self.closed:
             self.closed = True
-            self.writer.close()
+            close_recording(self.writer)
 
     def destroy_node(self):
         self.close()

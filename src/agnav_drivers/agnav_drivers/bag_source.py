@@ -2,8 +2,8 @@
 import hashlib
 import shutil
 import tempfile
-from dataclasses import dataclass
 from pathlib import Path
+from typing import NamedTuple
 
 from rosbags.convert import convert
 from rosbags.highlevel import AnyReader
@@ -11,8 +11,7 @@ from rosbags.highlevel import AnyReader
 from agnav_common.bagio import typestore, unfinished
 
 
-@dataclass(frozen=True)
-class BagMessage:
+class BagMessage(NamedTuple):
     topic: str
     msgtype: str      # ROS 2 name, e.g. sensor_msgs/msg/Imu
     stamp_ns: int     # bag (receive) time

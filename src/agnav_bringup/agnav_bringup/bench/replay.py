@@ -1,5 +1,9 @@
 """`agnav bench replay`: graph replay throughput, /imu/data_raw hop latency at 200 Hz, install/test times.
 
+Throughput: wall and CPU seconds of the whole `agnav run CONFIG --record OUT --no-eval` (start-up included) for the
+default (nsm), gds and ins graphs in deterministic mode (agnav_common.local_bus), nsm over DDS (`--dds`, the
+former one-process mode), and the player + recorder alone (`replay` config on the nsm bag); next to them the CPU of
+the navigation core alone on that bag (agnav_bringup.offline.replay: the node's pipeline, messages in log order).
 Latency is publish-to-callback time of sensor_msgs/Imu at 200 Hz (stamp = wall time at publish):
 agnav nodes on one EventsExecutor in one process, agnav nodes in two processes (`--processes`
 layout) and a bare rclpy pub/sub pair (default executor, two processes) measured in the same run.
@@ -7,6 +11,7 @@ layout) and a bare rclpy pub/sub pair (default executor, two processes) measured
 import argparse
 import json
 import os
+import resource
 import subprocess
 import sys
 import tempfile
@@ -108,21 +113,40 @@ def percentiles_ms(latencies):
             "n": int(a.size)}
 
 
-def replay_throughput(config):
+GRAPHS = [("nsm", []), ("gds", []), ("ins", []), ("nsm", ["--dds"]), ("replay", ["--bag", "nsm"])]
+
+
+def replay_throughput(config, extra=()):
+    """One `agnav run` in a child process: wall and CPU seconds (user + system), x real time."""
+    extra = [str(load_config(a).bag_path()) if i and extra[i - 1] == "--bag" else a for i, a in enumerate(extra)]
     cfg = load_config(config)
-    bag = BagSource(cfg.bag_path())
-    duration = (bag.end_ns - bag.start_ns) / 1e9
-    count = bag.message_count
+    bag = BagSource(extra[extra.index("--bag") + 1] if "--bag" in extra else cfg.bag_path())
+    duration, count = (bag.end_ns - bag.start_ns) / 1e9, bag.message_count
     bag.close()
     with tempfile.TemporaryDirectory() as tmp:
+        before = resource.getrusage(resource.RUSAGE_CHILDREN)
         start = time.monotonic()
-        result = subprocess.run([sys.executable, "-m", "agnav_bringup.cli", "run", config, "--record",
+        result = subprocess.run([sys.executable, "-m", "agnav_bringup.cli", "run", config, *extra, "--record",
                                  str(Path(tmp) / "rec"), "--quiet", "--no-eval"], capture_output=True, text=True)
         wall = time.monotonic() - start
+        after = resource.getrusage(resource.RUSAGE_CHILDREN)
     if result.returncode != 0:
         raise RuntimeError(f"agnav run {config} failed: {result.stderr[-2000:]}")
-    return {"config": config, "bag_messages": count, "bag_seconds": round(duration, 1), "wall_s": round(wall, 2),
-            "messages_per_s": round(count / wall), "x_real_time": round(duration / wall, 1)}
+    cpu = after.ru_utime - before.ru_utime + after.ru_stime - before.ru_stime
+    return {"config": config + ("" if "--bag" in extra else "".join(f" {a}" for a in extra)),
+            "mode": "dds" if "--dds" in extra else "deterministic", "bag": Path(bag.path).name,
+            "bag_messages": count, "bag_seconds": round(duration, 1), "wall_s": round(wall, 2), "cpu_s": round(cpu, 2),
+            "messages_per_s": round(count / wall), "x_real_time": round(duration / wall, 1),
+            "x_real_time_cpu": round(duration / cpu, 1)}
+
+
+def core_cpu(config="nsm"):
+    """CPU seconds of the navigation core alone on the config's bag (offline replay, bag reading included)."""
+    from agnav_bringup.offline import replay
+    cfg = load_config(config)
+    start = time.process_time()
+    states, _ = replay(cfg, cfg.bag_path())
+    return {"config": config, "cpu_s": round(time.process_time() - start, 2), "states": len(states)}
 
 
 def install_and_test_times():
@@ -140,10 +164,15 @@ def install_and_test_times():
 
 
 def table(results):
-    r = results["replay"]
-    lines = [f"replay {r['config']}: {r['bag_messages']} msgs, {r['bag_seconds']} s of bag in {r['wall_s']} s wall "
-             f"(incl. start-up): {r['messages_per_s']} msg/s, {r['x_real_time']}x real time", "",
-             "| /imu/data_raw hop at 200 Hz | p50 ms | p99 ms | n |", "|---|---|---|---|"]
+    core = results["core"]
+    lines = ["| agnav run (whole command, --record, --no-eval) | mode | bag | messages | bag s | wall s | CPU s | "
+             "x real time (wall) | x real time (CPU) |", "|---|---|---|---|---|---|---|---|---|"]
+    for r in results["replay"]:
+        lines.append(f"| {r['config']} | {r['mode']} | {r['bag']} | {r['bag_messages']} | {r['bag_seconds']} | "
+                     f"{r['wall_s']} | {r['cpu_s']} | {r['x_real_time']} | {r['x_real_time_cpu']} |")
+    lines += ["", f"Navigation core alone on the {core['config']} bag (offline replay, bag reading included): "
+                  f"{core['cpu_s']} s CPU.", "",
+              "| /imu/data_raw hop at 200 Hz | p50 ms | p99 ms | n |", "|---|---|---|---|"]
     for key in ("latency_single_process", "latency_processes", "latency_bare_rclpy"):
         v = results[key]
         lines.append(f"| {key.removeprefix('latency_')} | {v['p50_ms']:.3f} | {v['p99_ms']:.3f} | {v['n']} |")
@@ -156,7 +185,8 @@ def table(results):
 def main(argv):
     ap = argparse.ArgumentParser(prog="agnav bench replay", description=__doc__.splitlines()[0])
     ap.add_argument("--json", action="store_true")
-    ap.add_argument("--config", default="nsm", help="graph replayed for throughput (default nsm)")
+    ap.add_argument("--config", action="append", help="graph replayed for throughput (repeatable; default: nsm, "
+                    "gds, ins, nsm --dds and the replay config on the nsm bag)")
     ap.add_argument("--samples", type=int, default=2000, help="latency samples per variant (200 Hz)")
     ap.add_argument("--install", action="store_true", help="also time make setup + make test on a fresh clone")
     ap.add_argument("--write-docs", action="store_true", help=f"write the table to {DOC}")
@@ -166,7 +196,8 @@ def main(argv):
     if args.sink:
         run_sink_process(int(args.sink[0]), args.bare, args.sink[1])
         return 0
-    results = {"replay": replay_throughput(args.config),
+    graphs = [(c, []) for c in args.config] if args.config else GRAPHS
+    results = {"replay": [replay_throughput(config, extra) for config, extra in graphs], "core": core_cpu(),
                "latency_single_process": percentiles_ms(latency_single_process(args.samples)),
                "latency_processes": percentiles_ms(latency_two_processes(args.samples, bare=False)),
                "latency_bare_rclpy": percentiles_ms(latency_two_processes(args.samples, bare=True))}
@@ -176,8 +207,14 @@ def main(argv):
     print(text)
     if args.write_docs:
         DOC.parent.mkdir(parents=True, exist_ok=True)
-        DOC.write_text("# Foundation benchmark\n\nReproduce: `agnav bench replay --install --json --write-docs` "
-                       "(2-core machine).\n\n" + text + "\n")
+        kept = ""
+        if "install" not in results and DOC.exists() and "| fresh clone |" in DOC.read_text():  # not re-measured
+            kept = "\n\n(fresh clone: from an earlier `--install` run)\n\n" + DOC.read_text()[
+                DOC.read_text().index("| fresh clone |"):].strip()
+        DOC.write_text("# Foundation benchmark\n\nReproduce: `agnav bench replay --json --write-docs [--install]` "
+                       "(2-core machine, shared with other work: wall figures vary with its load, CPU less).\n"
+                       "Deterministic mode is `agnav run`'s default at rate 0 in one process (agnav_common.local_bus); "
+                       "its profile: docs/benchmarks/replay_profile.md.\n\n" + text + kept + "\n")
     if args.json:
         print(json.dumps(results))
     return 0
