@@ -14,6 +14,9 @@ yaw where its variance < 1e4), over-3σ samples are counted, also for the clean 
 the run (recovery s = last sample off by more, after the fault end); (e) diagnostics: within 1 s of the fault's
 first message, a status of a graph node on /diagnostics is WARN/ERROR where the clean run's is not, or a value
 that never changes in the clean run (a rejection counter) changes. Plus crashes (runner rc != 0) and NaN outputs.
+Graph `drivers`: the GNSS driver nodes fed faulty byte streams through a pseudo-terminal, with their own criteria
+(agnav_bringup.bench.faults_drivers). `--write-docs` replaces only the rows, totals and sections of the graphs
+run and keeps the others' results.
 """
 import argparse
 import json
@@ -27,6 +30,7 @@ from pathlib import Path
 
 import numpy as np
 
+from agnav_bringup.bench import faults_drivers
 from agnav_bringup.evaluate import error_series, move_datum, odometry_arrays, read_bag
 from agnav_bringup.fault_injection import FaultCase, bag_span, mutate_bag, repeat_bag
 from agnav_common.frames import euler_from_quaternion, wrap_angle
@@ -366,11 +370,50 @@ def markdown(results, cleans, tot):
     return "\n".join(lines) + "\n"
 
 
+def _doc_parts(text):
+    """(rows by graph, totals line by graph ('legacy': one for all bag graphs), drivers section) of a written doc."""
+    rows, tots, drivers = {}, {}, ""
+    head, sep, tail = text.partition("\n## Drivers")
+    if sep:
+        drivers = sep.lstrip("\n") + tail
+    for line in head.splitlines():
+        cells = [c.strip() for c in line.split("|")]
+        if line.startswith("| ") and len(cells) > 3 and cells[2] in GRAPHS:
+            rows.setdefault(cells[2], []).append(line)
+        elif line.startswith("Totals: "):
+            tots["legacy"] = line
+        elif line.startswith("Totals ") and line.split(":")[0].split()[-1] in GRAPHS:
+            tots[line.split(":")[0].split()[-1]] = line
+    return rows, tots, drivers
+
+
+def merged_docs(old, results, cleans, driver_results):
+    """The doc with the graphs run replaced (bag rows and totals per graph, the drivers section) and the others kept."""
+    rows, tots, drivers = _doc_parts(old)
+    for graph in {r["graph"] for r in cleans + results}:
+        res = [r for r in results if r["graph"] == graph]
+        cln = [r for r in cleans if r["graph"] == graph]
+        text = markdown(res, cln, totals(res, cln)).splitlines()
+        rows[graph] = [ln for ln in text if ln.startswith("| ") and not ln.startswith("| case ")]
+        tots[graph] = next(ln for ln in text if ln.startswith("Totals: ")).replace("Totals: ", f"Totals {graph}: ", 1)
+        tots.pop("legacy", None)  # one graph's new totals make the old all-graph line stale
+    if driver_results:
+        drivers = faults_drivers.markdown(driver_results, faults_drivers.totals(driver_results))
+    base = markdown([], [], totals([], [])).splitlines()
+    table = [ln for g in GRAPHS for ln in rows.get(g, []) if ln.startswith("| clean ")] + \
+            [ln for g in GRAPHS for ln in rows.get(g, []) if not ln.startswith("| clean ")]
+    lines = base[:base.index("|---|---|---|---|---|---|---|---|---|---|---|---|") + 1] + table + [""] + \
+        [tots[g] for g in ("legacy", *GRAPHS) if g in tots] + base[next(i for i, ln in enumerate(base)
+                                                                         if ln.startswith("Totals: ")) + 1:]
+    return "\n".join(lines).rstrip("\n") + "\n" + ("\n" + drivers if drivers else "")
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(prog="agnav bench faults", description=__doc__.splitlines()[0])
     ap.add_argument("--json", action="store_true", help="print one JSON object on the last line")
     ap.add_argument("--write-docs", action="store_true", help=f"write {DOCS.relative_to(REPO)}")
-    ap.add_argument("--graph", choices=sorted(GRAPHS), action="append", help="run only this graph (repeatable)")
+    ap.add_argument("--graph", choices=sorted([*GRAPHS, "drivers"]), action="append",
+                    help="run only this graph (repeatable; drivers: the GNSS driver cases)")
     ap.add_argument("--cases", default="", help="comma-separated case names (default: all)")
     ap.add_argument("--domain-id", type=int, default=int(os.environ.get("ROS_DOMAIN_ID", "0")),
                     help="ROS_DOMAIN_ID of the replays (default: the environment's)")
@@ -389,18 +432,28 @@ def main(argv=None):
             print(json.dumps(res))
         return 0
     names = {n for n in args.cases.split(",") if n}
-    known = {c.name for g, spec in GRAPHS.items() for c in cases_for(g, spec[2])}
+    known = {c.name for g, spec in GRAPHS.items() for c in cases_for(g, spec[2])} | \
+        {c.name for c in faults_drivers.cases()}
     if names - known:
         ap.error(f"unknown case(s) {', '.join(sorted(names - known))}; known: {', '.join(sorted(known))}")
     if args.keep:
         Path(args.keep).mkdir(parents=True, exist_ok=True)
-    results, cleans = run(args.graph or list(GRAPHS), names, args.domain_id, args.keep)
+    graphs = args.graph or [*GRAPHS, "drivers"]
+    bag_graphs = [g for g in graphs if g in GRAPHS]
+    results, cleans = run(bag_graphs, names, args.domain_id, args.keep) if bag_graphs else ([], [])
+    dres = faults_drivers.run(names, args.domain_id, args.keep) if "drivers" in graphs else []
     tot = totals(results, cleans)
-    text = markdown(results, cleans, tot)
+    text = markdown(results, cleans, tot) if results or cleans else ""
+    if dres:  # one set of totals over every case; the drivers' own criteria under "drivers"
+        dtot = faults_drivers.totals(dres)
+        tot = dict(tot, drivers=dtot, **{k: tot[k] + dtot[k] for k in ("cases", "passes", "crashes")})
+        text += ("\n" if text else "") + faults_drivers.markdown(dres, dtot)
+    results = results + dres
     print(text)
     if args.write_docs:
         DOCS.parent.mkdir(parents=True, exist_ok=True)
-        DOCS.write_text(text)
+        DOCS.write_text(merged_docs(DOCS.read_text() if DOCS.exists() else "", [r for r in results
+                                    if r["graph"] != "drivers"], cleans, dres))
     if args.json:
         print(json.dumps({"cases": results, "clean": cleans, "totals": tot}, default=str))
     return 0
