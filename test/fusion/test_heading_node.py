@@ -182,7 +182,7 @@ def _replay(mutate=None, onset=40.0, duration=10.0, estimator="vwa"):
     out, truth, diag = [], [], []
     node.pub.publish = out.append
     types = {"/imu/data_raw": (Imu, node._on_gyro), "/imu/mag": (MagneticField, node._on_mag),
-             "/inclinometer": (Inclination, node._on_inclinometer), "/tf_static": (TFMessage, node.tf._on_tf),
+             "/inclinometer": (Inclination, node._on_inclinometer), "/tf_static": (TFMessage, node.tf.add),
              "/ground_truth/odometry": (Odometry, truth.append)}
     with Reader(BAG) as reader:
         t0 = reader.start_time * 1e-9

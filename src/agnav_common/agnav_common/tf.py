@@ -23,11 +23,14 @@ class TfBuffer:
     """Latest transform per frame from /tf_static and /tf, composed along the tree (e.g. base_link -> mast ->
     gnss_link from a URDF's robot_state_publisher); stamps are ignored (latest value of every edge)."""
 
-    def __init__(self, node=None):
+    def __init__(self, node=None, dynamic=False):
+        """dynamic: also /tf (moving joints); sensor mounts come from /tf_static alone, which spares a node the
+        100 Hz /tf of the navigation output."""
         self._parent = {}  # child frame -> (parent frame, xyz ndarray, quaternion xyzw ndarray)
         if node is not None:
             node.create_subscription(TFMessage, "/tf_static", self.add, LATCHED_QOS)
-            node.create_subscription(TFMessage, "/tf", self.add, 100)
+            if dynamic:
+                node.create_subscription(TFMessage, "/tf", self.add, 100)
 
     def add(self, msg):
         """Takes a TFMessage (the /tf and /tf_static callback)."""
@@ -35,8 +38,6 @@ class TfBuffer:
             tr, q = t.transform.translation, t.transform.rotation
             self._parent[t.child_frame_id] = (
                 t.header.frame_id, np.array([tr.x, tr.y, tr.z]), np.array([q.x, q.y, q.z, q.w]))
-
-    _on_tf = add  # former name of the callback, fed directly by test/fusion/test_heading_node.py
 
     def _to_ancestors(self, frame):
         """{ancestor: (xyz, quat) of ancestor->frame} for frame itself (None: identity) and every frame above it."""
