@@ -48,6 +48,7 @@ class AdcSensorNode(StreamDriverNode):
         self.create_service(Trigger, "~/calibrate_gyro", self._calibrate)
         self.diagnostics.add("adc", self._check)
         self.diagnostics.add("gyro_zero", self._gyro_check)
+        self.start_reading()
 
     def handle_bytes(self, data: bytes, host_time: float) -> None:
         stamp = self.stamp(host_time)

@@ -31,6 +31,7 @@ class NmeaGnssNode(StreamDriverNode):
             resync_after=p("resync_after", defaults.resync_after).value))
         self.gnss = GnssPublishers(self, default_heading_std_deg=0.5)
         self.diagnostics.add("nmea", self._check)
+        self.start_reading()
 
     def handle_bytes(self, data: bytes, host_time: float) -> None:
         for event in self.parser.feed(data, host_time):

@@ -48,6 +48,9 @@ class StreamDriverNode(Node):
         self.diagnostics.add("link", self._link_check)
         self._running = True
         self._thread = threading.Thread(target=self._reader, name=f"{name}_reader", daemon=True)
+
+    def start_reading(self):
+        """Start the reader thread: the last step of a subclass's __init__ (handle_bytes needs its parser)."""
         if not (self.link.settings.port or self.link.settings.host or self.link.settings.file):
             self.get_logger().error("no source: set one of port, host+tcp_port or file")
         else:

@@ -23,6 +23,7 @@ class UbxGnssNode(StreamDriverNode):
         self.esf_status: EsfStatus | None = None
         self.esf_measurements = 0
         self.diagnostics.add("ubx", self._check)
+        self.start_reading()
 
     def handle_bytes(self, data: bytes, host_time: float) -> None:
         for event in self.parser.feed(data, host_time):
