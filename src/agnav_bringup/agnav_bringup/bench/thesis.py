@@ -100,7 +100,10 @@ def run_module(run, estimator="agnav", outage=None, latency=True, prepare=None, 
     start = time.perf_counter()
     states = offline.run_rows(pipeline, NSM, rows)
     cost = (time.perf_counter() - start) / len(states) * 1e6
-    a = np.array([(s.position[0], s.position[1], s.rpy[0], s.rpy[1], s.rpy[2], pipeline.ready(s),
+    # the node's map is at its datum (config nsm: the first fix), truth at the scenario's: as agnav eval does
+    plane = pipeline.plane
+    east, north, _ = LocalTangentPlane(*run.datum).to_enu(plane.lat_deg, plane.lon_deg, plane.alt_m)
+    a = np.array([(s.position[0] + east, s.position[1] + north, s.rpy[0], s.rpy[1], s.rpy[2], pipeline.ready(s),
                    *np.diag(s.pose_cov)[[0, 1, 3, 4, 5]]) for s in states])
     return dict(x=a[:, 0], y=a[:, 1], roll=a[:, 2], pitch=a[:, 3], yaw=a[:, 4], valid=a[:, 5] > 0,
                 var_x=a[:, 6], var_y=a[:, 7], var_roll=a[:, 8], var_pitch=a[:, 9], var_yaw=a[:, 10], us=cost,
