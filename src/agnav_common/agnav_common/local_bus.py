@@ -290,7 +290,7 @@ class LocalBus:
         for source in self.time_sources:
             source._last_time_set = time  # what TimeSource.clock_callback does, without a message per node
             for clock in source._associated_clocks:
-                clock.set_ros_time_override(time)
+                clock.handle.set_ros_time_override(time._time_handle)  # ROSClock.set_ros_time_override
 
     def _update_dues(self):
         for timer in list(self.timers):

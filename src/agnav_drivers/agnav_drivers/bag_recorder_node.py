@@ -44,7 +44,7 @@ class BagRecorderNode(Node):
         self.last_write = None  # monotonic time of the last message written (drain detection)
         self._early = []  # messages received before the (sim) clock started, written at its first tick
         # on a local bus with sim time the node clock is the bus time: read it without a clock call per message
-        self._bus_time = local_bus.current() is not None and self.get_clock().ros_time_is_active
+        self._bus = local_bus.current() if self.get_clock().ros_time_is_active else None
         self._discover()
         local_bus.on_new_topic(self._discover)  # in-process bus: subscribe before the first message, not 0.2 s later
         steady = Clock(clock_type=ClockType.STEADY_TIME)  # wall time: not stalled by a paused /clock
@@ -82,8 +82,7 @@ class BagRecorderNode(Node):
     def _write(self, topic, data):
         if self.closed:
             return
-        bus = local_bus.current()
-        now = bus.now if bus is not None and self._bus_time else self.get_clock().now().nanoseconds  # the same
+        now = self._bus.now if self._bus is not None else self.get_clock().now().nanoseconds  # the same
         if now == 0:
             self._early.append((topic, data))
             return
