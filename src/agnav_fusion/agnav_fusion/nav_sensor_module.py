@@ -14,7 +14,7 @@ from collections import Counter, deque
 import numpy as np
 
 from agnav_fusion import tilt_correction
-from agnav_fusion.front_end import InputGuard
+from agnav_fusion.front_end import InputGuard, Overdue
 from agnav_fusion.nav_agnav import AgnavEstimator
 from agnav_fusion.nav_settings import MOUNTS, NavSensorModuleSettings, NavState, Sample, cross  # noqa: F401 (re-exported)
 from agnav_fusion.nav_thesis import ThesisEstimator
@@ -45,8 +45,7 @@ class NavSensorModule:
         self.estimator = ESTIMATORS[self.settings.estimator](self)
         self.history.clear()
         self._imu_period = None                    # s, running mean IMU sample spacing
-        self._gnss_epoch = (None, None)            # (latest fix epoch, running mean fix period)
-        self._gnss_arrival, self._gnss_overdue = (0.0, None), False
+        self._fixes_due = Overdue(self.settings.gnss_overdue_periods)
         self._pending_gnss = []
         self._incl = None            # (t, roll, pitch) REP-103
         self._last_accepted_t = -math.inf
@@ -84,7 +83,7 @@ class NavSensorModule:
         if cov is None:
             return False
         self.guard.count("gnss")
-        self._fix_arrived(t)
+        self._fixes_due.arrived(t, self.history[-1].t if self.history else None)
         if vel_enu is not None:
             vel_var = self.guard.velocity_variance(vel_var, self.settings.velocity_sigma ** 2)
             if vel_var is None or not self.guard.accept("vel", t, vel_enu):
@@ -120,7 +119,8 @@ class NavSensorModule:
             self.guard.count("imu_gap")
         elif dt > 0:
             self._imu_period = dt if self._imu_period is None else self._imu_period + 0.01 * (dt - self._imu_period)
-        self._check_gnss_overdue(t)
+        if self._fixes_due.check(t):
+            self.guard.count("gnss_overdue")
         self._step(t, dt, np.asarray(gyro_flu, dtype=float))
         self._drain_gnss()
         self._state = self._output()
@@ -129,23 +129,6 @@ class NavSensorModule:
     def state(self):
         return self._state
 
-    def _check_gnss_overdue(self, t):
-        """Count one gnss_overdue event when no fix has arrived for gnss_overdue_periods fix periods."""
-        last, period = self._gnss_arrival
-        if period and not self._gnss_overdue and t - last > self.settings.gnss_overdue_periods * period:
-            self._gnss_overdue = True
-            self.guard.count("gnss_overdue")
-
-    def _fix_arrived(self, t_fix):
-        """A fix arrived at IMU time now: its epoch spacing sets the fix period the overdue check expects."""
-        now = max(self.history[-1].t, t_fix) if self.history else t_fix
-        last_epoch, period = self._gnss_epoch
-        if last_epoch is not None and t_fix > last_epoch:
-            step = t_fix - last_epoch
-            period = step if period is None else period + 0.1 * (min(step, 2 * period) - period)
-        self._gnss_epoch = (t_fix, period)
-        self._gnss_arrival = (now, period)
-        self._gnss_overdue = False
 
     # ---- per-sample processing -----------------------------------------------------------------------
     def _step(self, t, dt, gyro):

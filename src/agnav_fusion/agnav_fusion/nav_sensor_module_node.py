@@ -29,9 +29,8 @@ from sensor_msgs.msg import Imu, NavSatFix
 from agnav_fusion.nav_sensor_module import MOUNTS, NavSensorModule, NavSensorModuleSettings
 from agnav_fusion.navigation_output import map_datum_message, pose_transforms
 from agnav_fusion.odom_frame import OdomFrame
+from agnav_fusion.front_end import Urgent
 from agnav_fusion.pipeline import FrontEndSettings, NavigationPipeline
-
-URGENT_PERIOD = 0.25  # s of node time between diagnostics published on input problems
 
 
 def imu_message(s, frame_id, max_yaw_variance=None):
@@ -128,14 +127,12 @@ class NavSensorModuleNode(Node):
         self.diag = Diagnostics(self, "nav_sensor_module")
         self.diag.add("inputs", self.check_inputs)
         self.diag.add("state", self.check_state)
-        self.last_urgent = -float("inf")
+        self.urgent = Urgent()
         self.nsm.guard.on_problem = self.on_problem
 
     def on_problem(self, event):
-        """A new input problem is on /diagnostics at once (at most every URGENT_PERIOD s), not at the next tick."""
-        now = self.node_time()
-        if now - self.last_urgent >= URGENT_PERIOD or now < self.last_urgent:
-            self.last_urgent = now
+        """A new input problem is on /diagnostics at once (rate-limited), not at the next tick."""
+        if self.urgent.due(self.node_time()):
             self.diag.publish()
 
     def node_time(self):

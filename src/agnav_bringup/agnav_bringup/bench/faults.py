@@ -167,19 +167,22 @@ def constant_values(rows):
     return {k: next(iter(v)) for k, v in seen.items() if len(v) == 1}
 
 
+STAMP_TOLERANCE = 1e-6  # s: float seconds of the fault time vs the diagnostics' integer-nanosecond stamps
+
+
 def detected(rows, clean_rows, t_fault):
     """Time (s after t_fault) of the first diagnostic that shows the fault, or None."""
     const = constant_values(clean_rows)
     ct = np.array([t for t, _ in clean_rows])
     for t, st in rows:
-        if t < t_fault:
+        if t < t_fault - STAMP_TOLERANCE:  # a node may report at the very stamp of the faulty message
             continue
         ref = clean_rows[int(np.argmin(np.abs(ct - t)))][1] if ct.size else {}
         for name, (level, values) in st.items():
             if level >= 1 and level > ref.get(name, (0, {}))[0]:
-                return t - t_fault
+                return max(t - t_fault, 0.0)
             if any(const.get((name, k), v) != v for k, v in values.items()):
-                return t - t_fault
+                return max(t - t_fault, 0.0)
     return None
 
 
