@@ -87,6 +87,9 @@ class LocalSubscription:
 
 
 class LocalBus:
+    """The bus of one process: install() (or `with LocalBus():`) before the nodes are built, uninstall() after
+    they are destroyed."""
+
     def __init__(self, publish_dds=False):
         self.publish_dds = publish_dds
         self.publishers = {}      # topic -> [LocalPublisher] in creation order
@@ -108,13 +111,14 @@ class LocalBus:
         if _installed is not None:
             raise RuntimeError("a LocalBus is already installed in this process")
         _installed = self
-        bus = self
         for name in _PATCHED:
-            self._saved[name] = original = getattr(Node, name)
-            local = getattr(LocalBus, f"_node_{name}")
-            setattr(Node, name, (lambda local, original: lambda node, *a, **kw: local(bus, original, node, *a, **kw))(
-                local, original))
+            self._saved[name] = getattr(Node, name)
+            setattr(Node, name, self._patched(getattr(LocalBus, f"_node_{name}"), self._saved[name]))
         return self
+
+    def _patched(self, local, original):
+        """A Node method that calls LocalBus.<local>(self, rclpy's method, node, ...)."""
+        return lambda node, *args, **kwargs: local(self, original, node, *args, **kwargs)
 
     def uninstall(self):
         """Restore rclpy's Node methods and drop every reference to the nodes (graph and sim time)."""
