@@ -49,7 +49,7 @@ class AttitudeKF:
                 return None
             self._init(incl)
             self._acc_lag = accel_error
-        a = dt / s.tau
+        a = 1.0 - math.exp(-dt / s.tau) if s.tau > 0 else 1.0  # exact first-order lag: stable for any dt (IMU gaps)
         F = np.array([[1.0, -dt, 0.0], [0.0, 1.0, 0.0], [a, 0.0, 1.0 - a]])
         x, P = kalman.predict(self.x, self.P, F, 0.0)
         P[0, 0] += s.gyro_noise ** 2 * dt

@@ -158,8 +158,14 @@ class NavSensorModule:
     # ---- GNSS fix at its epoch ----------------------------------------------------------------------------
     def _process_fix(self, t, antenna, cov, vel, vel_var):
         hist = self.history
-        k = max(i for i in range(len(hist)) if hist[i].t <= t) if hist[0].t <= t else 0
+        if hist[0].t > t:  # the history moved past the epoch while the fix waited (an IMU gap)
+            self.guard.count("gnss_too_old")
+            return
+        k = max(i for i in range(len(hist)) if hist[i].t <= t)
         snap = hist[k]
+        if t - snap.t > self.settings.max_dt:  # inside an IMU gap: no attitude or track to place the fix on
+            self.guard.count("gnss_in_imu_gap")
+            return
         corrected = tilt_correction.correct(antenna, self.lever, snap.heading, snap.pitch, snap.roll)
         v_ref = None if vel is None else vel[:2] - self._lever_velocity(k)
         R = self.estimator.white_fix_covariance(cov[:2, :2]) + self._tilt_variance() * np.eye(2)

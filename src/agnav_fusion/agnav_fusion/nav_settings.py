@@ -53,7 +53,7 @@ class NavSensorModuleSettings:
     gnss_timeout: float = 2.5                 # s without an accepted fix -> dead reckoning
     max_dt: float = 0.5                       # s, a longer IMU gap is counted and bridged in steps of this length
     gap_periods: float = 3.0                  # IMU sample periods: a longer spacing is counted as a gap
-    gap_rate_sigma: float = 0.05              # rad/s, unknown yaw-rate change across an IMU gap
+    gap_rate_sigma: float = 0.1               # rad/s, unknown yaw-rate change across an IMU gap
     gap_accel_sigma: float = 0.5              # m/s^2, unknown acceleration across an IMU gap
     gnss_overdue_periods: float = 1.5         # fix periods without a fix: gnss_overdue (diagnostics)
     max_gap: float = 10.0                     # s, after a longer IMU gap the navigation solution restarts
