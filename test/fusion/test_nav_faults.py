@@ -103,12 +103,14 @@ def test_a_persistent_jump_restarts_the_position_after_gnss_reset_time():
     assert errors(shifted, 55.0)[0] < 0.1
 
 
-@pytest.mark.parametrize("gap", [0.6, 2.0])
+@pytest.mark.parametrize("gap", [0.6, 2.0, 2.5])
 def test_imu_gaps_are_bridged_with_growing_covariance(gap, clean_worst):
     def mutate(kind, args):
         return None if kind == "imu" and 40.0 < args[0] <= 40.0 + gap else args
     nsm, out = drive(seconds=60.0, mutate=mutate)
     assert nsm.counters["imu_gap"] == 1
+    if gap > nsm.settings.history:  # the fix that arrived during the gap is older than the history after it
+        assert nsm.counters["gnss_too_old"] + nsm.counters["gnss_in_imu_gap"] >= 1
     after = [(t, s, x, y, yaw) for t, s, x, y, yaw in out if 40.0 + gap < t < 41.0 + gap]
     assert errors(after)[0] < 0.1  # not left behind by speed x gap
     assert_honest(out, clean_worst)
