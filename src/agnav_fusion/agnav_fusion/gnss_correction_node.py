@@ -63,7 +63,7 @@ class GnssCorrectionNode(Node):
     def on_odom(self, msg):
         q, c = msg.pose.pose.orientation, msg.pose.covariance
         roll, pitch, yaw = euler_from_quaternion(q.x, q.y, q.z, q.w)
-        if np.all(np.isfinite([roll, pitch, yaw])):
+        if math.isfinite(roll) and math.isfinite(pitch) and math.isfinite(yaw):
             self.attitudes.append((to_sec(msg.header.stamp), float(heading_from_yaw(yaw)), -pitch, roll,
                                    (c[21], c[28], c[35])))
             self.correct_pending()

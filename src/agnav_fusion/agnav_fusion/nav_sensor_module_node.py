@@ -43,10 +43,10 @@ def imu_message(s, frame_id, max_yaw_variance=None):
     cov = s.pose_cov[3:, 3:].copy()
     if max_yaw_variance is not None:
         cov[2, 2] = min(cov[2, 2], max_yaw_variance)
-    msg.orientation_covariance = [float(v) for v in cov.ravel()]
+    msg.orientation_covariance = cov.ravel()
     w = msg.angular_velocity
     w.x, w.y, w.z = (float(v) for v in s.rates)
-    msg.angular_velocity_covariance = [float(v) for v in s.twist_cov[3:, 3:].ravel()]
+    msg.angular_velocity_covariance = s.twist_cov[3:, 3:].ravel()
     msg.linear_acceleration_covariance[0] = -1.0
     return msg
 
@@ -61,11 +61,11 @@ def odometry_message(s, frames):
     pose.position.x, pose.position.y, pose.position.z = (float(v) for v in s.position)
     q = pose.orientation
     q.x, q.y, q.z, q.w = quaternion_from_euler(*s.rpy)
-    odom.pose.covariance = [float(v) for v in s.pose_cov.ravel()]
+    odom.pose.covariance = s.pose_cov.ravel()
     tw = odom.twist.twist
     tw.linear.x = float(s.speed)
     tw.angular.x, tw.angular.y, tw.angular.z = (float(v) for v in s.rates)
-    odom.twist.covariance = [float(v) for v in s.twist_cov.ravel()]
+    odom.twist.covariance = s.twist_cov.ravel()
     return odom
 
 

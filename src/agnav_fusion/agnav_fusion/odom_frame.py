@@ -4,7 +4,8 @@ go into map->odom. At the start (and when time goes backwards: a new replay) odo
 import math
 
 import numpy as np
-from scipy.spatial.transform import Rotation
+
+from agnav_common.frames import quaternion_from_euler
 
 
 class OdomFrame:
@@ -26,8 +27,10 @@ class OdomFrame:
             self.xyz = self.xyz + speed * dt * np.array([math.cos(self.yaw) * cp, math.sin(self.yaw) * cp,
                                                          -math.sin(pitch)])
         self.t = t
-        odom_rot = Rotation.from_euler("xyz", (roll, pitch, self.yaw))
-        map_rot = Rotation.from_euler("xyz", (roll, pitch, yaw))
-        rot = map_rot * odom_rot.inv()   # map <- odom
-        trans = np.asarray(position, dtype=float) - rot.apply(self.xyz)
-        return self.xyz, odom_rot.as_quat(), trans, rot.as_quat()
+        # same roll and pitch in both frames (Rz Ry Rx): map <- odom is the yaw difference alone
+        d = yaw - self.yaw
+        c, s = math.cos(d), math.sin(d)
+        trans = np.array([position[0] - (c * self.xyz[0] - s * self.xyz[1]),
+                          position[1] - (s * self.xyz[0] + c * self.xyz[1]), position[2] - self.xyz[2]])
+        return self.xyz, quaternion_from_euler(roll, pitch, self.yaw), trans, (0.0, 0.0, math.sin(d / 2),
+                                                                              math.cos(d / 2))
