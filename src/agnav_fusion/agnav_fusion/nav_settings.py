@@ -4,6 +4,7 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
+from agnav_common.frames import cross  # noqa: F401 (the estimators' per-sample cross product)
 
 from agnav_fusion.attitude_kf import AttitudeKFSettings
 from agnav_fusion.attitude_lsm import AttitudeLSMSettings
@@ -88,11 +89,6 @@ class Sample:
     nav: tuple                # agnav: (x, P) of the EKF; thesis: (xy, cov) of dead reckoning
     still: bool = False       # agnav: vehicle stationary (zero-yaw-rate update of the gyro bias)
     wheel: tuple = None       # agnav: (speed m/s, variance) of a wheel speed fused at this epoch
-
-
-def cross(a, b):
-    """a x b of 3-vectors (np.cross costs ~20x more on this per-sample path)."""
-    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
 
 
 def euler_rates(body_rates, roll, pitch):

@@ -19,6 +19,7 @@ from .settings import InsEkfSettings, NavSolution  # noqa: F401 (re-exported)
 
 UNINITIALIZED, ALIGNING, ALIGNED = "uninitialized", "aligning", "aligned"
 MAX_GAP_STEPS = 1000        # sub-steps bridging one IMU gap at most
+V3_BLOCK = np.ix_(list(em.V3), list(em.V3))
 
 
 class InsEkf:
@@ -135,10 +136,9 @@ class InsEkf:
         pos[2, 2] = self.p[em.H, em.H]
         pos += self._fix_drift_cov
         m = ENU_TO_NED.T @ ned_to_c(st.alpha).T       # C -> ENU
-        iv = list(em.V3)
         tilt = 0.5 * (self.p[em.TX, em.TX] + self.p[em.TY, em.TY])
         return NavSolution(self.t, st.lat, st.lon, st.h, st.v_ned(), roll, pitch, heading, self.omega_b.copy(),
-                           st.c_b_ned(), pos, m @ self.p[np.ix_(iv, iv)] @ m.T,
+                           st.c_b_ned(), pos, m @ self.p[V3_BLOCK] @ m.T,
                            np.array([tilt, tilt, self.p[em.GAMMA, em.GAMMA]]), np.diag(self.p)[em.BG].copy())
 
     def augment(self, p_new, p_cross=None):

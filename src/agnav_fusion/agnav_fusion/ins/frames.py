@@ -8,7 +8,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from agnav_common.frames import wrap_angle
+from agnav_common.frames import cross, wrap_angle
 
 from .lever_arm import imu_to_point_position
 from .measurements import ENU_TO_NED
@@ -56,7 +56,7 @@ def base_link_state(sol, mounts, plane, rate_var=(0.0, 0.0, 0.0)):
     lat, lon, h = imu_to_point_position(sol.lat, sol.lon, sol.h, -mounts.lever_imu_frd, sol.c_b_ned)
     position = np.array(plane.to_enu(math.degrees(lat), math.degrees(lon), h), dtype=float)
     r_body_enu = ENU_TO_NED.T @ sol.c_b_ned @ FLU_TO_FRD          # base_link FLU -> ENU
-    v_ned = sol.v_ned + sol.c_b_ned @ np.cross(sol.omega_b, -mounts.lever_imu_frd)
+    v_ned = sol.v_ned + sol.c_b_ned @ cross(sol.omega_b, -mounts.lever_imu_frd)
     # the mount lever turned by an attitude error moves base_link: δp = φ x (C l), φ ~ N(0, diag(att_var))
     arm = skew(sol.c_b_ned @ -mounts.lever_imu_frd)
     pose_cov = np.zeros((6, 6))

@@ -2,6 +2,7 @@
 import math
 
 import numpy as np
+from agnav_common.frames import cross
 
 from . import earth
 
@@ -15,7 +16,7 @@ def antenna_to_imu_position(lat, lon, h, lever_frd, c_b_ned):
 
 def antenna_to_imu_velocity(v_ned, lever_frd, c_b_ned, omega_b):
     """IMU velocity (NED) from the antenna's with the ω x l term (5-5-4)."""
-    return np.asarray(v_ned) - c_b_ned @ np.cross(omega_b, lever_frd)
+    return np.asarray(v_ned) - c_b_ned @ cross(omega_b, lever_frd)
 
 
 def imu_to_point_position(lat, lon, h, lever_frd, c_b_ned):

@@ -8,6 +8,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from agnav_common.frames import cross
 
 from . import earth, error_model as em
 from .lever_arm import antenna_to_imu_position, antenna_to_imu_velocity
@@ -108,6 +109,6 @@ class GnssVelocity:
         h[1, [em.VY, em.GAMMA, em.BETA]] = 1.0, vt[0], -vt[1]
         h[2, em.VZ] = 1.0
         cov = ENU_TO_NED @ gnss.vel_cov_enu @ ENU_TO_NED.T
-        lever_v = snap.c_b_ned @ np.cross(snap.omega_b, self.lever)
+        lever_v = snap.c_b_ned @ cross(snap.omega_b, self.lever)
         cov[:2, :2] += heading_var * float(np.sum(lever_v[:2] ** 2)) * np.eye(2)
         return Linearized(self.name, m @ snap.v_ned - vt, h, m @ cov @ m.T)

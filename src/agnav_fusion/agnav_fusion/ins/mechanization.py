@@ -9,6 +9,7 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
+from agnav_common.frames import cross
 
 from . import earth, quaternion
 
@@ -18,11 +19,6 @@ T = np.diag([1.0, -1.0, -1.0])
 def skew(v):
     """[v x] cross-product matrix."""
     return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
-
-
-def cross(a, b):
-    """a x b for 3-vectors (faster than np.cross for single vectors)."""
-    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
 
 
 def rotation(phi):
