@@ -1,5 +1,6 @@
 """QoS profiles shared by every agnav node."""
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.qos_overriding_options import QoSOverridingOptions
 
 # Sensor-stream subscriptions: reliable, keep-all: every sample stays queued until the callback takes it, so a
 # node in another process that falls behind a replay loses nothing (the player waits for acknowledgements).
@@ -9,3 +10,11 @@ PUBLISHER_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=100, reliabili
 # Latched topics (/tf_static, /map_datum): late joiners get the last message.
 LATCHED_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1, reliability=ReliabilityPolicy.RELIABLE,
                          durability=DurabilityPolicy.TRANSIENT_LOCAL)
+
+
+def subscribe_input(node, msg_type, topic, callback):
+    """A sensor-input subscription with SENSOR_QOS that a user may override with the standard ROS 2 parameters
+    `qos_overrides.<topic>.subscription.{reliability,history,depth}` (read-only, set at start), e.g. reliability
+    best_effort to match a driver that publishes with SensorDataQoS (a reliable reader never hears it)."""
+    return node.create_subscription(msg_type, topic, callback, SENSOR_QOS,
+                                    qos_overriding_options=QoSOverridingOptions.with_default_policies())

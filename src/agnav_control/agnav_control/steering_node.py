@@ -12,7 +12,7 @@ from agnav_common.frames import euler_from_quaternion
 from agnav_common.geodesy import LocalTangentPlane
 from agnav_common.input_guard import EventWindow, StreamClock, StreamClockSettings
 from agnav_common.node_main import main_for
-from agnav_common.qos import LATCHED_QOS, PUBLISHER_QOS, SENSOR_QOS
+from agnav_common.qos import LATCHED_QOS, PUBLISHER_QOS, SENSOR_QOS, subscribe_input
 from agnav_common.stamps import to_sec
 from agnav_fusion.variance_weighted_average import VwaSettings
 from agnav_msgs.msg import GuidanceState, SteeringCommand
@@ -85,7 +85,7 @@ class SteeringNode(Node):
 
         self.state_pub = self.create_publisher(GuidanceState, "guidance/state", PUBLISHER_QOS)
         self.cmd_pub = self.create_publisher(SteeringCommand, "steering/command", PUBLISHER_QOS)
-        self.create_subscription(Odometry, "odometry/filtered", self._on_odometry, SENSOR_QOS)
+        subscribe_input(self, Odometry, "odometry/filtered", self._on_odometry)
         self.create_subscription(NavSatFix, "map_datum", self._on_datum, LATCHED_QOS)
         if not self.get_parameter("use_sim_time").value:
             self.create_subscription(Clock, "/clock", self._on_clock, SENSOR_QOS)

@@ -14,7 +14,7 @@ from agnav_common.input_guard import EventWindow, StreamClock, covariance
 from agnav_common.frames import euler_from_quaternion, heading_from_yaw
 from agnav_common.geodesy import LocalTangentPlane
 from agnav_common.node_main import main_for
-from agnav_common.qos import PUBLISHER_QOS, SENSOR_QOS
+from agnav_common.qos import PUBLISHER_QOS, subscribe_input
 from agnav_common.stamps import to_sec
 from agnav_common.tf import TfBuffer
 from nav_msgs.msg import Odometry
@@ -42,8 +42,8 @@ class GnssCorrectionNode(Node):
         self.counts = {}
         self.events = EventWindow(p("diagnostic_window", 10.0))  # s of node time the diagnostics describe
         self.pub = self.create_publisher(NavSatFix, "gnss/fix_corrected", PUBLISHER_QOS)
-        self.create_subscription(NavSatFix, "gnss/fix", self.on_fix, SENSOR_QOS)
-        self.create_subscription(Odometry, "odometry/filtered", self.on_odom, SENSOR_QOS)
+        subscribe_input(self, NavSatFix, "gnss/fix", self.on_fix)
+        subscribe_input(self, Odometry, "odometry/filtered", self.on_odom)
         Diagnostics(self, "gnss_correction").add("inputs", self.check_inputs)
 
     def now(self):

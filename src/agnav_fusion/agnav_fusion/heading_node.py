@@ -33,7 +33,7 @@ from agnav_common.frames import euler_from_quaternion, quaternion_from_euler, ya
 from agnav_common.geodesy import LocalTangentPlane
 from agnav_common.input_guard import EventWindow, StreamClock, StreamClockSettings, finite
 from agnav_common.node_main import main_for
-from agnav_common.qos import PUBLISHER_QOS, SENSOR_QOS
+from agnav_common.qos import PUBLISHER_QOS, subscribe_input
 from agnav_common.stamps import to_sec, to_stamp
 from agnav_common.tf import TfBuffer
 from agnav_msgs.msg import Inclination
@@ -114,13 +114,13 @@ class HeadingNode(Node):
         self.tf = TfBuffer(self)
 
         self.pub = self.create_publisher(Imu, "heading/imu", PUBLISHER_QOS)
-        self.create_subscription(Imu, "imu/data_raw", self._on_gyro, SENSOR_QOS)
-        self.create_subscription(MagneticField, "imu/mag", self._on_mag, SENSOR_QOS)
-        self.create_subscription(NavSatFix, "gnss/fix", self._on_fix, SENSOR_QOS)
+        subscribe_input(self, Imu, "imu/data_raw", self._on_gyro)
+        subscribe_input(self, MagneticField, "imu/mag", self._on_mag)
+        subscribe_input(self, NavSatFix, "gnss/fix", self._on_fix)
         if self.tilt_source == "imu_data":
-            self.create_subscription(Imu, "imu/data", self._on_imu_data, SENSOR_QOS)
+            subscribe_input(self, Imu, "imu/data", self._on_imu_data)
         elif self.tilt_source == "inclinometer":
-            self.create_subscription(Inclination, "inclinometer", self._on_inclinometer, SENSOR_QOS)
+            subscribe_input(self, Inclination, "inclinometer", self._on_inclinometer)
         self.diagnostics = Diagnostics(self, "heading")
         self.diagnostics.add("heading", self._diagnose)
 

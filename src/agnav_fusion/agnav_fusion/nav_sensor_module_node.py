@@ -16,7 +16,7 @@ from agnav_common.diagnostics import OK, WARN, Diagnostics
 from agnav_common.frames import quaternion_from_euler
 from agnav_common.node_main import main_for
 from agnav_common.parameters import declare, leaves
-from agnav_common.qos import LATCHED_QOS, PUBLISHER_QOS, SENSOR_QOS
+from agnav_common.qos import LATCHED_QOS, PUBLISHER_QOS, subscribe_input
 from agnav_common.stamps import to_stamp
 from agnav_common.tf import TfBuffer, TransformBroadcaster
 from agnav_msgs.msg import Inclination
@@ -111,16 +111,16 @@ class NavSensorModuleNode(Node):
         self.tf = TfBuffer(self)
         self.tf_out = TransformBroadcaster(self)
         self.odom_frame = OdomFrame()
-        self.create_subscription(Imu, "imu/data_raw", self.on_imu, SENSOR_QOS)
+        subscribe_input(self, Imu, "imu/data_raw", self.on_imu)
         if front.tilt_source == "inclinometer":
-            self.create_subscription(Inclination, "inclinometer", self.pipeline.on_inclinometer, SENSOR_QOS)
+            subscribe_input(self, Inclination, "inclinometer", self.pipeline.on_inclinometer)
         if self.uses_gnss:
             self.odom_pub = self.create_publisher(Odometry, "odometry/filtered", PUBLISHER_QOS)
             self.imu_pub = self.create_publisher(Imu, "imu/data", PUBLISHER_QOS)  # the fused attitude
             self.datum_pub = self.create_publisher(NavSatFix, "map_datum", LATCHED_QOS)
-            self.create_subscription(NavSatFix, "gnss/fix", self.pipeline.on_fix, SENSOR_QOS)
-            self.create_subscription(TwistWithCovarianceStamped, "gnss/vel", self.pipeline.on_velocity, SENSOR_QOS)
-            self.create_subscription(Odometry, "wheel/odometry", self.pipeline.on_wheel, SENSOR_QOS)
+            subscribe_input(self, NavSatFix, "gnss/fix", self.pipeline.on_fix)
+            subscribe_input(self, TwistWithCovarianceStamped, "gnss/vel", self.pipeline.on_velocity)
+            subscribe_input(self, Odometry, "wheel/odometry", self.pipeline.on_wheel)
             self.pipeline.start()
         self.last_imu_arrival = None  # node time of the latest /imu/data_raw message
         self.published = 0
