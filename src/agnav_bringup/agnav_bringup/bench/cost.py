@@ -14,7 +14,7 @@ import time
 
 from agnav_bringup import offline
 from agnav_bringup.bench.ins import run_ins_sim
-from agnav_bringup.bench.thesis import NSM, sim_rows
+from agnav_bringup.bench.module_runs import NSM, sim_rows
 
 GOALS_US = {"agnav": 110.0, "thesis": 50.0, "ins": 130.0}
 

@@ -148,7 +148,7 @@ def sim_case(name, seed):
     """INS vs the thesis' navigation sensor module (both estimators) on one simulator run: accuracy over the window
     where the INS is aligned and the module's heading is valid, alignment times, outage drifts, cost."""
     from agnav_drivers.sim import simulate
-    from agnav_bringup.bench.thesis import UNCALIBRATED, run_module
+    from agnav_bringup.bench.module_runs import UNCALIBRATED, run_module
     run = simulate(name, seed=seed, messages=True)
     tr = run.truth
     moving = float(tr.t[np.argmax(tr.speed > 0.1)])

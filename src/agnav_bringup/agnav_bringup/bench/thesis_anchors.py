@@ -118,7 +118,7 @@ def _tail(filtered, smoothed, where=None):
 
 def smoother(run, **overrides):
     """RTS lower bound: the agnav module replayed offline (GNSS at its epoch), then smoothed; estimate dict."""
-    from agnav_bringup.bench.thesis import run_module
+    from agnav_bringup.bench.module_runs import run_module
 
     def enable_logs(nsm):
         e = nsm.estimator

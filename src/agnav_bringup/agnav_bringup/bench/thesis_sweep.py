@@ -13,7 +13,8 @@ from pathlib import Path
 
 import numpy as np
 
-from agnav_bringup.bench.thesis import SURFACES, errors, run_module, tilt_zero, DEG
+from agnav_bringup.bench.module_runs import run_module
+from agnav_bringup.bench.thesis import DEG, SURFACES, errors, tilt_zero
 from agnav_fusion.nav_sensor_module import NavSensorModuleSettings
 
 DOCS = Path(__file__).resolve().parents[4] / "docs" / "benchmarks" / "thesis_sweep.md"
