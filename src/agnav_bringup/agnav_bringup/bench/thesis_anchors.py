@@ -33,9 +33,9 @@ def _euler(q_wxyz):
 
 def _base_imu(run, zero):
     """Gyro (rad/s) rotated into base_link and the inclinometer specific force (m/s^2), zero-corrected."""
-    from agnav_bringup.bench.thesis import _mount_rotation
+    from agnav_bringup.bench.thesis import mount_rotation
 
-    _, r = _mount_rotation(run, "imu_link")
+    _, r = mount_rotation(run, "imu_link")
     roll, pitch = run.incl.roll - zero[0], run.incl.pitch - zero[1]
     force = GRAVITY * np.column_stack([-np.sin(pitch), np.sin(roll) * np.cos(pitch), np.cos(roll) * np.cos(pitch)])
     return run.imu.gyro @ r.T, force
