@@ -7,7 +7,7 @@ import os
 from geometry_msgs.msg import TwistWithCovarianceStamped
 from sensor_msgs.msg import NavSatFix, NavSatStatus
 
-from agnav_bringup.bench import faults, faults_drivers as fd
+from agnav_bringup.bench import faults, faults_drivers as fd, faults_report
 from agnav_common.stamps import to_stamp
 
 
@@ -57,9 +57,9 @@ def test_docs_merge_keeps_other_graphs():
              first_fix_after_s=0.1, allowed_s=2.0,
              max_gap_after_s=0.2, first_bad_output=None, bad_outputs=0, detected_after_s=0.5, detect_keys=["k"],
              stale_outputs=0, crash=False, **{k: True for k in fd.CRITERIA}, **{"pass": True})
-    new = faults.merged_docs(old, [], [], [r])
+    new = faults_report.merged_docs(old, [], [], [r])
     assert all(ln in new for ln in bag_rows) and "| x | drivers | yes |" in new
-    again = faults.merged_docs(new, [], [], [dict(r, case="y")])
+    again = faults_report.merged_docs(new, [], [], [dict(r, case="y")])
     assert "| x | drivers" not in again and "| y | drivers" in again and all(ln in again for ln in bag_rows)
 
 
