@@ -77,6 +77,7 @@ class NavNodeSettings:
     imu_frame: str = "imu_link"           # frame of /imu/data_raw (rotation from TF)
     gnss_frame: str = "gnss_link"         # GNSS antenna (lever arm from TF)
     inclinometer_frame: str = "inclinometer_link"  # inclinometer (lever arm from TF; else the IMU's)
+    frame_prefix: str = ""                # put before every frame but map, e.g. "tractor1/" (several vehicles, one TF)
     publish_tf: bool = True               # publish map->odom->base_link
     imu_timeout: float = 0.5              # s of node time without an IMU message: diagnostics say stale
 
@@ -102,8 +103,9 @@ class NavSensorModuleNode(Node):
     def __init__(self, name="nav_sensor_module_node", **kwargs):
         super().__init__(name, **kwargs)
         node_settings, front, module = declare_all(self)
-        self.frames = {k: getattr(node_settings, f"{k}_frame") for k in ("map", "odom", "imu", "gnss", "inclinometer")}
-        self.frames["base"] = node_settings.base_frame
+        prefix = node_settings.frame_prefix
+        self.frames = {k: prefix + getattr(node_settings, f"{k}_frame") for k in ("odom", "imu", "gnss", "inclinometer")}
+        self.frames.update(map=node_settings.map_frame, base=prefix + node_settings.base_frame)
         self.publish_tf = node_settings.publish_tf
         self.imu_timeout = node_settings.imu_timeout
         self.nsm = NavSensorModule(module)
