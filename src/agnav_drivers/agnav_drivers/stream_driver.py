@@ -44,7 +44,7 @@ class StreamDriverNode(Node):
         self.published = 0
         self._rates = RateMeter()
         self._problems_seen = 0
-        self.diagnostics = Diagnostics(self, hardware)
+        self.diagnostics = Diagnostics(self, f"{hardware} on {self.link.settings.describe}")  # hardware_id: the device
         self.diagnostics.add("link", self._link_check)
         self._running = True
         self._thread = threading.Thread(target=self._reader, name=f"{name}_reader", daemon=True)

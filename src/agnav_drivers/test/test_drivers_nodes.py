@@ -92,6 +92,7 @@ def test_nmea_node_streams_gpsd_capture_to_navsatfix(ros, device):
     assert h.got["/gnss/vel"] and h.got["/gnss/vel"][0].twist.covariance[35] == 99999.0
     status, values = diag_values(h.got["/diagnostics"], "nmea")
     assert status is not None and int(values["accepted"]) > 0 and values["fix_type"] == "single"
+    assert device.path in status.hardware_id  # the device, not the class (diagnostic_updater convention)
     h.close()
 
 
