@@ -81,3 +81,81 @@ def test_every_contract_type_round_trips(ros, tmp_path):
     for topic, msg in messages.items():
         assert msg in back[topic], topic  # /diagnostics also holds the recorder's own status
         assert types[topic] == f"{type(msg).__module__.split('.')[0]}/msg/{type(msg).__name__}"
+
+
+INFINITE = {"sec": 9223372036, "nsec": 854775807}  # RMW_DURATION_INFINITE, as Fast DDS reports unset durations
+
+
+def rosbag2_profile(history, depth, reliability, durability, duration=INFINITE):
+    """One offered_qos_profiles entry as rosbag2 (Kilted, metadata version 9) writes it."""
+    return {"history": history, "depth": depth, "reliability": reliability, "durability": durability,
+            "deadline": duration, "lifespan": duration, "liveliness": "automatic",
+            "liveliness_lease_duration": duration, "avoid_ros_namespace_conventions": False}
+
+
+def mcap_channel_qos(mcap_file):
+    """{topic: offered_qos_profiles} from the channel records' metadata of an mcap file."""
+    import yaml
+
+    from agnav_common.bagio import _flat_records, _string
+    out = {}
+    with open(mcap_file, "rb") as f:
+        f.read(8)
+        for op, b in _flat_records(f):
+            if op == 0x04:  # channel: id, schema id, topic, encoding, metadata map (byte length, string pairs)
+                topic, at = _string(b, 4)
+                at = _string(b, at)[1] + 4
+                while at < len(b):
+                    key, at = _string(b, at)
+                    value, at = _string(b, at)
+                    if key == "offered_qos_profiles":
+                        out[topic] = yaml.safe_load(value)
+    return out
+
+
+def test_recording_carries_offered_qos(ros, tmp_path):
+    """metadata.yaml and the mcap channels hold each publisher's QoS as rosbag2 writes it: `ros2 bag play`
+    republishes /tf_static and /map_datum latched and the sensor stream best effort."""
+    import yaml
+    from rclpy.qos import qos_profile_sensor_data
+    from sensor_msgs.msg import NavSatFix
+
+    from agnav_common.qos import LATCHED_QOS, PUBLISHER_QOS
+    messages = contract_messages()
+    source = ros.create_node("source")
+    profiles = {"/tf_static": LATCHED_QOS, "/map_datum": LATCHED_QOS, "/imu/data_raw": qos_profile_sensor_data,
+                "/odometry/filtered": PUBLISHER_QOS}
+    messages["/map_datum"] = NavSatFix(latitude=43.07, longitude=141.34, altitude=80.5)
+    publishers = {t: source.create_publisher(type(messages[t]), t, q) for t, q in profiles.items()}
+    recorder = BagRecorderNode(parameter_overrides=[
+        Parameter("output", value=str(tmp_path / "out")), Parameter("topics", value=list(profiles))])
+    executor = EventsExecutor()
+    executor.add_node(source)
+    executor.add_node(recorder)
+    for _ in range(500):
+        executor.spin_once(timeout_sec=0.01)
+        if len(recorder.connections) == len(profiles) and all(
+                p.get_subscription_count() > 0 for p in publishers.values()):
+            break
+    for topic, pub in publishers.items():
+        pub.publish(messages[topic])
+    for _ in range(300):
+        executor.spin_once(timeout_sec=0.01)
+        if all(recorder.counts.get(topic) for topic in profiles):
+            break
+    recorder.destroy_node()
+    source.destroy_node()
+    latched = rosbag2_profile("keep_last", 1, "reliable", "transient_local")
+    expected = {"/tf_static": [latched], "/map_datum": [latched],
+                "/imu/data_raw": [rosbag2_profile("unknown", 0, "best_effort", "volatile")],  # Fast DDS: no history
+                "/odometry/filtered": [rosbag2_profile("unknown", 0, "reliable", "volatile")]}
+    meta = yaml.safe_load((tmp_path / "out" / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
+    assert meta["version"] == 9
+    topics = {t["topic_metadata"]["name"]: t["topic_metadata"]["offered_qos_profiles"]
+              for t in meta["topics_with_message_count"]}
+    assert topics == expected
+    assert mcap_channel_qos(next((tmp_path / "out").glob("*.mcap"))) == expected
+    with AnyReader([tmp_path / "out"]) as reader:  # and a rosbag2 reader parses them back
+        assert {c.topic: c.ext.offered_qos_profiles[0].durability.name for c in reader.connections} == {
+            "/tf_static": "TRANSIENT_LOCAL", "/map_datum": "TRANSIENT_LOCAL", "/imu/data_raw": "VOLATILE",
+            "/odometry/filtered": "VOLATILE"}

@@ -6,7 +6,7 @@ Simulated input: `agnav sim gds_straight_slow --seed 1 --out bags/gds_straight_s
 Run (a full ROS 2 install; `agnav run gds` is the equivalent without one):
     ros2 launch agnav_bringup gds.launch.py use_sim_time:=true
     ros2 bag play bags/gds_straight_slow --clock
-    ros2 bag record /heading/imu /diagnostics /ground_truth/odometry
+    ros2 bag record /heading/imu /tf /diagnostics /ground_truth/odometry
 """
 from launch import LaunchDescription
 from launch.actions import DeclareLaunchArgument

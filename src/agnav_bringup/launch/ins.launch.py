@@ -7,7 +7,7 @@ sim mems_field --seed 1 --out bags/mems_field`.
 Run (a full ROS 2 install; `agnav run ins` is the equivalent without one):
     ros2 launch agnav_bringup ins.launch.py use_sim_time:=true
     ros2 bag play bags/mems_field --clock
-    ros2 bag record /odometry/filtered /imu/data /map_datum /tf_static /ground_truth/odometry /diagnostics
+    ros2 bag record /odometry/filtered /imu/data /map_datum /tf /tf_static /ground_truth/odometry /diagnostics
 """
 from launch import LaunchDescription
 from launch.actions import DeclareLaunchArgument

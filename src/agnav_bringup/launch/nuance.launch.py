@@ -7,7 +7,7 @@ Scored by `agnav bench realdata` (heading vs GNSS course, position vs fixes).
 Run (a full ROS 2 install; `agnav run nuance` is the equivalent without one):
     ros2 launch agnav_bringup nuance.launch.py use_sim_time:=true
     ros2 bag play bags/nuance_car_circles --clock
-    ros2 bag record /odometry/filtered /gnss/fix_corrected /gnss/fix /map_datum /diagnostics
+    ros2 bag record /odometry/filtered /gnss/fix_corrected /gnss/fix /map_datum /tf /tf_static /diagnostics
 """
 from launch import LaunchDescription
 from launch.actions import DeclareLaunchArgument

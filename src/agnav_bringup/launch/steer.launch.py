@@ -4,7 +4,7 @@ nav_sensor_module_node + steering_node (PID); engages once the fusion has conver
 
 Run (a full ROS 2 install; `agnav run steer` is the equivalent without one):
     ros2 launch agnav_bringup steer.launch.py
-    ros2 bag record /odometry/filtered /ground_truth/odometry /guidance/state /steering/command /diagnostics
+    ros2 bag record /odometry/filtered /ground_truth/odometry /guidance/state /steering/command /tf /tf_static /diagnostics
 """
 from launch import LaunchDescription
 from launch.actions import DeclareLaunchArgument

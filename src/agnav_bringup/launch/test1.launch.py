@@ -7,7 +7,7 @@ accelerometer-derived tilt -> /odometry/filtered; gnss_correction_node -> /gnss/
 Run (a full ROS 2 install; `agnav run test1` is the equivalent without one):
     ros2 launch agnav_bringup test1.launch.py use_sim_time:=true
     ros2 bag play bags/test1 --clock --remap /imu/data:=/imu/data_raw /fix:=/gnss/fix /husky_velocity_controller/odom:=/wheel/odometry
-    ros2 bag record /odometry/filtered /gnss/fix_corrected /gnss/fix /map_datum /wheel/odometry /diagnostics
+    ros2 bag record /odometry/filtered /gnss/fix_corrected /gnss/fix /map_datum /wheel/odometry /tf /tf_static /diagnostics
 """
 from launch import LaunchDescription
 from launch.actions import DeclareLaunchArgument

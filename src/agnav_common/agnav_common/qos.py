@@ -1,4 +1,4 @@
-"""QoS profiles shared by every agnav node."""
+"""QoS profiles shared by every agnav node, and their rosbag2 form (offered_qos_profiles of a recording)."""
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.qos_overriding_options import QoSOverridingOptions
 
@@ -10,6 +10,7 @@ PUBLISHER_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=100, reliabili
 # Latched topics (/tf_static, /map_datum): late joiners get the last message.
 LATCHED_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1, reliability=ReliabilityPolicy.RELIABLE,
                          durability=DurabilityPolicy.TRANSIENT_LOCAL)
+LATCHED_NAMES = ("tf_static", "map_datum")  # last name part: /tractor1/map_datum is latched too
 
 
 def subscribe_input(node, msg_type, topic, callback):
@@ -18,3 +19,31 @@ def subscribe_input(node, msg_type, topic, callback):
     best_effort to match a driver that publishes with SensorDataQoS (a reliable reader never hears it)."""
     return node.create_subscription(msg_type, topic, callback, SENSOR_QOS,
                                     qos_overriding_options=QoSOverridingOptions.with_default_policies())
+
+
+def known_profile(topic):
+    """The QoS agnav's own publishers offer on `topic`."""
+    return LATCHED_QOS if topic.rsplit("/", 1)[-1] in LATCHED_NAMES else PUBLISHER_QOS
+
+
+def bag_profiles(topic, offered):
+    """rosbags Qos list for a recording's offered_qos_profiles (written as rosbag2 Kilted does: policies as lowercase
+    names, durations as {sec, nsec}) from the rclpy QoSProfiles of the topic's publishers; none: known_profile.
+    Fast DDS reports no history of remote writers (unknown, depth 0; rosbag2 records that too): on latched topics
+    the known keep-last 1 fills in."""
+    from rosbags.interfaces import Qos, QosDurability, QosHistory, QosLiveliness, QosReliability, QosTime
+
+    def time(duration):
+        return QosTime(*divmod(duration.nanoseconds, 1_000_000_000))
+
+    known = known_profile(topic)
+    profiles = []
+    for q in offered or [known]:
+        history, depth = q.history, q.depth
+        if history == HistoryPolicy.UNKNOWN and known is LATCHED_QOS:
+            history, depth = known.history, known.depth
+        profiles.append(Qos(QosHistory(int(history)), depth, QosReliability(int(q.reliability)),
+                            QosDurability(int(q.durability)), time(q.deadline), time(q.lifespan),
+                            QosLiveliness(int(q.liveliness)), time(q.liveliness_lease_duration),
+                            q.avoid_ros_namespace_conventions))
+    return profiles

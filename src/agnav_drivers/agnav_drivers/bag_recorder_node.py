@@ -1,6 +1,7 @@
 """Bag recorder: writes chosen topics (default: every topic of the graph) to a rosbag2 mcap.
 
-Messages are stored raw with their message definitions (Foxglove and `ros2 bag` open the result),
+Messages are stored raw with their message definitions (Foxglove and `ros2 bag` open the result) and every
+channel with its publishers' offered QoS (`ros2 bag play` republishes latched topics latched),
 time-stamped with the node clock (bag time under use_sim_time). Topics appearing later are picked up.
 Every `flush_period` seconds (wall time) the messages so far go to disk as a complete mcap chunk: a recorder
 killed without closing (SIGKILL, power loss) leaves a folder that `agnav recover DIR` finishes.
@@ -19,6 +20,7 @@ from agnav_common import local_bus
 from agnav_common.bagio import close_recording, flush_recording, typestore, write_message
 from agnav_common.diagnostics import OK, Diagnostics
 from agnav_common.node_main import main_for
+from agnav_common.qos import bag_profiles
 from agnav_drivers.ros_types import message_class
 
 ALWAYS_EXCLUDED = ("/rosout", "/parameter_events")
@@ -62,16 +64,18 @@ class BagRecorderNode(Node):
                 cls = message_class(msgtype)
             except (ImportError, AttributeError):
                 continue
-            if msgtype not in self.store.types:
+            offered = [info.qos_profile for info in self.get_publishers_info_by_topic(topic)]
+            if msgtype not in self.store.types or not offered:  # as rosbag2: no unpublished topics (yet)
                 continue
-            self.connections[topic] = self.writer.add_connection(topic, msgtype, typestore=self.store)
+            self.connections[topic] = self.writer.add_connection(
+                topic, msgtype, typestore=self.store, offered_qos_profiles=bag_profiles(topic, offered))
             self.counts[topic] = 0
-            qos = self._qos_for(topic)
+            qos = self._qos_for(offered)
             self.create_subscription(cls, topic, lambda data, t=topic: self._write(t, data), qos, raw=True)
 
-    def _qos_for(self, topic):
+    @staticmethod
+    def _qos_for(offered):
         """Subscription QoS compatible with every publisher: reliable/latched only if all offer it."""
-        offered = [info.qos_profile for info in self.get_publishers_info_by_topic(topic)]
         qos = QoSProfile(history=HistoryPolicy.KEEP_ALL)
         if offered and any(q.reliability == ReliabilityPolicy.BEST_EFFORT for q in offered):
             qos.reliability = ReliabilityPolicy.BEST_EFFORT
