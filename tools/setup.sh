@@ -64,7 +64,7 @@ fi
 build_interfaces agnav_msgs src/agnav_msgs
 
 # 4. The Python packages, editable, so that a checkout edit is live.
-PKGS=(agnav_common agnav_drivers agnav_fusion agnav_control agnav_bringup)
+PKGS=(agnav_common agnav_drivers agnav_fusion agnav_control agnav_bringup agnav_sim_eval)
 for p in "${PKGS[@]}"; do
   if ! fresh "pkg-$p" "src/$p/setup.py" "src/$p/package.xml" "src/$p/pyproject.toml"; then
     echo "[setup] installing $p"

@@ -27,7 +27,6 @@ setup(
             "nmea_gnss_node = agnav_drivers.nmea_gnss_node:main",
             "ubx_gnss_node = agnav_drivers.ubx_gnss_node:main",
             "adc_sensor_node = agnav_drivers.adc_sensor_node:main",
-            "tractor_sim = agnav_drivers.sim_node:main",
             "agnav_csv_import = agnav_drivers.csv_import:main",
         ],
     },

@@ -9,8 +9,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
-from agnav_control.fusion_adapters import rtk_fog_settings
-from agnav_drivers.sim import SCENARIOS
+from agnav_sim_eval.fusion_adapters import rtk_fog_settings
+from agnav_sim_eval.sim import SCENARIOS
 
 REPO = Path(__file__).resolve().parents[2]
 CONFIG = REPO / "src" / "agnav_bringup" / "config" / "steer.yaml"
@@ -50,7 +50,7 @@ def test_config_fusion_parameters_are_the_offline_loops():
 @pytest.fixture(scope="module")
 def recording(tmp_path_factory):
     pytest.importorskip("rclpy")
-    from agnav_bringup.evaluate import read_bag
+    from agnav_sim_eval.evaluate import read_bag
     tmp = tmp_path_factory.mktemp("steer_graph")
     config = yaml.safe_load(CONFIG.read_text())
     _nodes(config)["tractor_sim"]["parameters"]["real_time_factor"] = 2.0

@@ -1,4 +1,4 @@
-"""Driver cases of the fault bench (agnav_bringup.bench.faults_drivers): the scoring catches what the issue saw
+"""Driver cases of the fault bench (agnav_sim_eval.bench.faults_drivers): the scoring catches what the issue saw
 (NO_FIX at lat/lon 0, zero covariance marked known, 2000 m/s, stale stamps), the docs merge keeps other graphs'
 results, and two real cases (node processes on a pty) pass: corrupt UBX length, NMEA unplug/replug."""
 import math
@@ -7,7 +7,7 @@ import os
 from geometry_msgs.msg import TwistWithCovarianceStamped
 from sensor_msgs.msg import NavSatFix, NavSatStatus
 
-from agnav_bringup.bench import faults, faults_drivers as fd, faults_report
+from agnav_sim_eval.bench import faults, faults_drivers as fd, faults_report
 from agnav_common.stamps import to_stamp
 
 

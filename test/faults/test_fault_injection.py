@@ -1,4 +1,4 @@
-"""Bag mutator (agnav_bringup.fault_injection) on small bags, the fault bench's diagnostics rule, and one short
+"""Bag mutator (agnav_sim_eval.fault_injection) on small bags, the fault bench's diagnostics rule, and one short
 graph run of the bench (gds, magnetometer NaN)."""
 import math
 
@@ -8,7 +8,7 @@ from geometry_msgs.msg import TwistWithCovarianceStamped
 from rosbags.rosbag2 import Reader
 from sensor_msgs.msg import Imu, MagneticField, NavSatFix
 
-from agnav_bringup.fault_injection import FaultCase, mutate_bag
+from agnav_sim_eval.fault_injection import FaultCase, mutate_bag
 from agnav_common.bagio import typestore
 from agnav_common.geodesy import LocalTangentPlane
 from agnav_common.stamps import to_stamp
@@ -190,7 +190,7 @@ def test_unknown_kind_is_an_error():
 
 def test_diagnostics_rule():
     """Visible: a level above the clean run's, or a value that never changes in the clean run changes."""
-    from agnav_bringup.bench.faults import detected
+    from agnav_sim_eval.bench.faults import detected
     clean = [(100.0 + k, {"n: inputs": (0, {"bad": "0", "received": str(k)}), "c: x": (1, {})}) for k in range(5)]
     same = [(t, {n: (lvl, dict(v)) for n, (lvl, v) in st.items()}) for t, st in clean]
     assert detected(same, clean, 100.5) is None  # counters that always move and a WARN the clean run has too
@@ -201,7 +201,7 @@ def test_diagnostics_rule():
 
 
 def test_repeat_bag_shifts_log_times_and_stamps(source, tmp_path):
-    from agnav_bringup.fault_injection import repeat_bag
+    from agnav_sim_eval.fault_injection import repeat_bag
     before = _read(source)
     seconds = repeat_bag(source, tmp_path / "long", 3, once=(VEL,))
     after = _read(tmp_path / "long")
@@ -222,7 +222,7 @@ def test_gds_graph_magnetometer_nan_case():
     publishes no NaN, keeps its output going and counts the rejected samples on /diagnostics within 1 s."""
     import os
 
-    from agnav_bringup.bench.faults import run
+    from agnav_sim_eval.bench.faults import run
     results, cleans = run(["gds"], {"mag_nan"}, int(os.environ["ROS_DOMAIN_ID"]))
     (clean,), (r,) = cleans, results
     assert clean["rc"] == 0 and clean["outputs"] > 500

@@ -11,7 +11,7 @@ import pytest
 
 pytest.importorskip("rclpy")
 
-from agnav_bringup.evaluate import read_bag  # noqa: E402
+from agnav_sim_eval.evaluate import read_bag  # noqa: E402
 from agnav_common.bagio import filter_bag  # noqa: E402
 from rosbags.highlevel import AnyReader  # noqa: E402
 
@@ -56,7 +56,7 @@ def test_two_replays_record_identical_messages(recordings):
 
 def test_recording_equals_the_offline_pipeline(recordings):
     from agnav_bringup.graph_config import load_config
-    from agnav_bringup.offline import replay as offline_replay
+    from agnav_sim_eval.offline import replay as offline_replay
     bag, first, _ = recordings
     states, _ = offline_replay(load_config("nsm"), bag)
     graph = read_bag(first, ["/odometry/filtered"])["/odometry/filtered"]

@@ -1,5 +1,5 @@
 """Graph test: the first 45 s of bags/asphalt_loop through the real nodes (`agnav run nsm` in a subprocess),
-scored with agnav_bringup.evaluate against the bag's ground truth. Bounds sit well inside the raw sensors'
+scored with agnav_sim_eval.evaluate against the bag's ground truth. Bounds sit well inside the raw sensors'
 errors (integrated gyro heading 6.4 deg, raw DGPS 7.5 cm; docs/benchmarks/thesis.md) and catch the failures
 this graph has had (uninitialised heading published: yaw 80 deg; a fix without its velocity)."""
 import math
@@ -13,7 +13,7 @@ import pytest
 
 pytest.importorskip("rclpy")
 
-from agnav_bringup.evaluate import evaluate_bags, read_bag  # noqa: E402
+from agnav_sim_eval.evaluate import evaluate_bags, read_bag  # noqa: E402
 from agnav_common.bagio import filter_bag, typestore  # noqa: E402
 from rosbags.highlevel import AnyReader  # noqa: E402
 
@@ -74,10 +74,10 @@ def test_gnss_correction_finds_the_attitude_of_each_fix(replay):
 
 
 def test_offline_pipeline_equals_the_graph(replay, request):
-    """What we measure is what ships: the bag through agnav_bringup.offline (the node's NavigationPipeline, its
+    """What we measure is what ships: the bag through agnav_sim_eval.offline (the node's NavigationPipeline, its
     parameters, messages in log order) gives the graph's /odometry/filtered in one process bit for bit."""
     from agnav_bringup.graph_config import load_config
-    from agnav_bringup.offline import replay as offline_replay
+    from agnav_sim_eval.offline import replay as offline_replay
     bag, out = replay
     states, _ = offline_replay(load_config("nsm"), bag)
     graph = read_bag(out, ["/odometry/filtered"])["/odometry/filtered"]

@@ -3,8 +3,8 @@ initialises, stays on the fixes, follows the course over ground, never goes NaN 
 Bounds sit above docs/benchmarks/realdata.md (test1 13.3 deg / 0.58 m, nuance 5.2 deg / 1.16 m)."""
 import pytest
 
-from agnav_bringup.bench.realdata import DATASETS, bag_duration, replay, score
-from agnav_bringup.evaluate import read_bag
+from agnav_sim_eval.bench.realdata import DATASETS, bag_duration, replay, score
+from agnav_sim_eval.evaluate import read_bag
 
 CASES = {  # name: (heading - COG RMS deg, position - fix RMS m, init after s, input left after the output s)
     "test1": (18.0, 0.8, 10.0, 0.5),               # COG noise 10.6 deg (SBAS 2.5 Hz at 1 m/s)

@@ -4,7 +4,7 @@ import math
 import numpy as np
 import pytest
 
-from agnav_fusion.variance_weighted_average import VariableTargetVwa, VwaSettings, WindowStats, vwa
+from agnav_common.variance_weighted_average import VariableTargetVwa, VwaSettings, WindowStats, vwa
 from synthetic_heading import rms_deg, straight_run
 
 

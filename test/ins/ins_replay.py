@@ -1,4 +1,4 @@
-"""Replays bags/mems_field, clean or with one fault of agnav_bringup.fault_injection, through ins_node's callbacks in
+"""Replays bags/mems_field, clean or with one fault of agnav_sim_eval.fault_injection, through ins_node's callbacks in
 one process on a simulated clock, capturing /odometry/filtered and the node's /diagnostics: sampled once per second
 as its 1 Hz timer does, and whenever the node publishes them at once (on a new input problem).
 
@@ -46,7 +46,7 @@ def start_time():
 
 def with_fault(messages, case):
     """Copy of `messages` with a fault_injection.FaultCase applied as `mutate_bag` does (by recording time)."""
-    from agnav_bringup.fault_injection import mutate
+    from agnav_sim_eval.fault_injection import mutate
 
     out, hit, last_good = [], 0, None
     topics = {case.topic, *case.also}

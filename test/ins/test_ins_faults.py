@@ -1,4 +1,4 @@
-"""ins_node through input faults at t = 100 s of bags/mems_field (agnav_bringup.fault_injection cases, replayed in
+"""ins_node through input faults at t = 100 s of bags/mems_field (agnav_sim_eval.fault_injection cases, replayed in
 one process on the bag's clock by ins_replay): every output within 3 sigma of the truth through and after the
 fault, back within 10 cm of the clean run at most 10 s after it, the output stream never lost, the fault on the
 diagnostics within 0.5 s (published at once on a new problem, not at the next 1 Hz tick) and gone again some seconds
@@ -10,7 +10,7 @@ import pytest
 
 pytest.importorskip("rclpy")
 
-from agnav_bringup.fault_injection import FaultCase  # noqa: E402
+from agnav_sim_eval.fault_injection import FaultCase  # noqa: E402
 from agnav_common.diagnostics import OK  # noqa: E402
 from ins_replay import bag_messages, replay, with_fault, yaw_errors  # noqa: E402
 

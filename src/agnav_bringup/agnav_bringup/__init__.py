@@ -1,1 +1,1 @@
-"""agnav configs, graph runner, evaluator and benchmarks (the agnav CLI)."""
+"""agnav configs and the graph runner (the agnav CLI)."""

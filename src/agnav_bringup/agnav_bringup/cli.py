@@ -1,19 +1,20 @@
-"""`agnav`: one command for the graph runner, benchmarks, simulator and evaluator."""
+"""`agnav`: one command for the graph runner (this package) and the simulator, evaluator, calibration and
+benchmarks of agnav_sim_eval (imported on use: a product install without it still runs graphs)."""
 import importlib
 import sys
 
 COMMANDS = {
     "run": ("agnav_bringup.runner", "start a graph config (replay a bag, record, evaluate)"),
     "bench": (None, "agnav bench NAME [--json]: run a benchmark (see `agnav bench --list`)"),
-    "sim": ("agnav_drivers.sim.cli", "simulate a scenario into a bag"),
-    "eval": ("agnav_bringup.evaluate", "score a recorded output against ground truth"),
-    "calibrate": ("agnav_bringup.calibrate", "tilt-sensor zeros from a recorded park / turn round / park drive"),
+    "sim": ("agnav_sim_eval.sim.cli", "simulate a scenario into a bag"),
+    "eval": ("agnav_sim_eval.evaluate", "score a recorded output against ground truth"),
+    "calibrate": ("agnav_sim_eval.calibrate", "tilt-sensor zeros from a recorded park / turn round / park drive"),
     "recover": (None, "agnav recover DIR: finish a recording whose run was killed (keeps every flushed chunk)"),
 }
 
 
 def bench(argv):
-    from agnav_bringup import bench as bench_pkg
+    from agnav_sim_eval import bench as bench_pkg
     names = bench_pkg.available()
     if not argv or argv[0] in ("-h", "--help", "--list"):
         print("usage: agnav bench NAME [--json] [...]\nbenchmarks: " + ", ".join(names))
@@ -21,7 +22,7 @@ def bench(argv):
     if argv[0] not in names:
         print(f"agnav bench: unknown benchmark '{argv[0]}'; available: {', '.join(names)}", file=sys.stderr)
         return 2
-    return importlib.import_module(f"agnav_bringup.bench.{argv[0]}").main(argv[1:])
+    return importlib.import_module(f"agnav_sim_eval.bench.{argv[0]}").main(argv[1:])
 
 
 def recover(argv):
@@ -48,7 +49,13 @@ def main(argv=None):
         return bench(argv[1:])
     if argv[0] == "recover":
         return recover(argv[1:])
-    module = importlib.import_module(COMMANDS[argv[0]][0])
+    try:
+        module = importlib.import_module(COMMANDS[argv[0]][0])
+    except ModuleNotFoundError as exc:
+        if exc.name != "agnav_sim_eval":
+            raise
+        print(f"agnav {argv[0]}: needs the agnav_sim_eval package (not installed)", file=sys.stderr)
+        return 2
     try:
         return int(module.main(argv[1:]) or 0)
     except KeyboardInterrupt:  # Ctrl-C outside a graph run (e.g. during an evaluation): no traceback

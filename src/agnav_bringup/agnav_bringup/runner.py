@@ -288,7 +288,7 @@ def run(args):
               f"to {record}")
         if bag is not None and not args.no_eval and not stopping and "/ground_truth/odometry" in recorder.counts \
                 and "/odometry/filtered" in recorder.counts:
-            from agnav_bringup.evaluate import main as evaluate
+            from agnav_sim_eval.evaluate import main as evaluate
             return evaluate([str(record), "--truth", str(bag), "--plots", str(record / "plots")])
     return 0
 

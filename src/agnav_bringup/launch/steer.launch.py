@@ -33,7 +33,7 @@ def generate_launch_description():
              arguments=['--x', '0.5', '--y', '0.0', '--z', '2.1', '--roll', '0.0', '--pitch', '0.0', '--yaw', '0.0',
                         '--frame-id', 'base_link', '--child-frame-id', 'mag_link'],
              parameters=[{'use_sim_time': use_sim_time}]),
-        Node(package='agnav_drivers', executable='tractor_sim', name='tractor_sim', output='screen',
+        Node(package='agnav_sim_eval', executable='tractor_sim', name='tractor_sim', output='screen',
              parameters=[{
                  'scenario': 'rtk_straight_fast',
                  'seed': 1,

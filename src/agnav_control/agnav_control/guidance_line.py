@@ -5,7 +5,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 from agnav_common.frames import heading_from_yaw, wrap_angle, yaw_from_heading
-from agnav_fusion.variance_weighted_average import VariableTargetVwa, VwaSettings
+from agnav_common.variance_weighted_average import VariableTargetVwa, VwaSettings
 
 
 @dataclass(frozen=True)
@@ -124,7 +124,7 @@ class LineTeacher:
 
 class VariableTargetLine:
     """Variable target heading (SPEC §3.6, Fig. 2.19) for one fused yaw stream: every ΔT the line is turned to
-    the mean heading of the last T s about the vehicle (cross-track kept), windowing by agnav_fusion's VWA."""
+    the mean heading of the last T s about the vehicle (cross-track kept), windowing by agnav_common's VWA."""
 
     def __init__(self, settings: VwaSettings | None = None):
         self._vwa = VariableTargetVwa(settings)

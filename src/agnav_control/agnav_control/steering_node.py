@@ -14,7 +14,7 @@ from agnav_common.input_guard import EventWindow, StreamClock, StreamClockSettin
 from agnav_common.node_main import main_for
 from agnav_common.qos import LATCHED_QOS, PUBLISHER_QOS, SENSOR_QOS, subscribe_input
 from agnav_common.stamps import to_sec
-from agnav_fusion.variance_weighted_average import VwaSettings
+from agnav_common.variance_weighted_average import VwaSettings
 from agnav_msgs.msg import GuidanceState, SteeringCommand
 from nav_msgs.msg import Odometry
 from rclpy.node import Node

@@ -3,7 +3,7 @@ import math
 import pytest
 from agnav_common.geodesy import LocalTangentPlane
 from agnav_control.guidance_line import GuidanceLine, LineTeacher, ParallelPasses, VariableTargetLine
-from agnav_fusion.variance_weighted_average import VwaSettings
+from agnav_common.variance_weighted_average import VwaSettings
 
 
 def test_cross_track_sign_left_positive_and_heading_error():

@@ -8,7 +8,7 @@ from collections import deque
 from dataclasses import dataclass
 
 from agnav_common.frames import wrap_angle
-from agnav_fusion.variance_weighted_average import VariableTargetVwa, VwaSettings
+from agnav_common.variance_weighted_average import VariableTargetVwa, VwaSettings
 
 
 @dataclass

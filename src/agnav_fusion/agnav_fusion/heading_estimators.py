@@ -18,7 +18,7 @@ from agnav_fusion.gds_drift_lsm import DelayedVwaSettings, DriftLsmSettings, Gds
 from agnav_fusion.gds_gyro_kf import GdsGyroKalmanFilter, KfSettings
 from agnav_fusion.gnss_heading_lsm import GnssGyroHeading
 from agnav_fusion.heading_gate import GyroErrorSettings, propagation_variance
-from agnav_fusion.variance_weighted_average import VariableTargetVwa, VwaSettings
+from agnav_common.variance_weighted_average import VariableTargetVwa, VwaSettings
 
 ESTIMATORS = ("gds_kf", "vwa", "gds_gyro_lsm", "gnss_gyro_lsm")
 MIN_VARIANCE = math.radians(0.05) ** 2

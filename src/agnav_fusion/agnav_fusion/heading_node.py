@@ -47,7 +47,7 @@ from agnav_fusion.geomagnetic_model import DisturbanceSettings, MagneticModel, d
 from agnav_fusion.heading_estimators import EstimatorSettings, HeadingEstimator
 from agnav_fusion.heading_gate import GateSettings, GyroErrorSettings, MagneticGate
 from agnav_fusion.gds_gyro_kf import KfSettings
-from agnav_fusion.variance_weighted_average import VwaSettings
+from agnav_common.variance_weighted_average import VwaSettings
 
 UNKNOWN_VARIANCE = 99999.0
 MAX_GYRO_GAP = 0.5   # s; longer gaps restart the gyro integration step

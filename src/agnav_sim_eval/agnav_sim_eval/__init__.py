@@ -1,0 +1,1 @@
+"""agnav simulator, closed-loop harness, evaluator, calibration and benchmarks: support for the product."""
