@@ -374,13 +374,3 @@ def recover_bag(path):
         shutil.rmtree(tmp, ignore_errors=True)
     return count
 
-
-def rosbag_qos(latched):
-    """The offered QoS a rosbag2 channel records for our publishers: latched (transient local, depth 1) or a
-    reliable sensor stream."""
-    from rosbags.interfaces import Qos, QosDurability, QosHistory, QosLiveliness, QosReliability, QosTime
-    zero = QosTime(sec=0, nsec=0)
-    return Qos(history=QosHistory.KEEP_LAST, depth=1 if latched else 100, reliability=QosReliability.RELIABLE,
-               durability=QosDurability.TRANSIENT_LOCAL if latched else QosDurability.VOLATILE,
-               deadline=zero, lifespan=zero, liveliness=QosLiveliness.AUTOMATIC,
-               liveliness_lease_duration=zero, avoid_ros_namespace_conventions=False)

@@ -19,7 +19,8 @@ import numpy as np
 from rosbags.rosbag2 import Writer
 from rosbags.rosbag2.enums import CompressionFormat, CompressionMode, StoragePlugin
 
-from agnav_common.bagio import rosbag_qos, typestore
+from agnav_common.bagio import typestore
+from agnav_common.qos import bag_profiles
 
 FRD_TO_FLU = np.array([1.0, -1.0, -1.0])
 TYPES = {"/imu/data_raw": "sensor_msgs/msg/Imu", "/imu/mag": "sensor_msgs/msg/MagneticField",
@@ -86,7 +87,7 @@ def convert(csv_path, out_dir, gps_sigma=2.5, gps_time_offset=0.0, overwrite=Fal
     writer.set_compression(CompressionMode.STORAGE, CompressionFormat.ZSTD)
     with writer:
         conns = {topic: writer.add_connection(topic, msgtype, typestore=ts,
-                                              offered_qos_profiles=[rosbag_qos(topic == "/tf_static")])
+                                              offered_qos_profiles=bag_profiles(topic, None))
                  for topic, msgtype in TYPES.items()}
         for ns, topic, msg in rows:
             writer.write(conns[topic], ns, ts.serialize_cdr(msg, TYPES[topic]))
