@@ -15,7 +15,7 @@ the run (recovery s = last sample off by more, after the fault end); (e) diagnos
 first message, a status of a graph node on /diagnostics is WARN/ERROR where the clean run's is not, or a value
 that never changes in the clean run (a rejection counter) changes. Plus crashes (runner rc != 0) and NaN outputs.
 Graph `drivers`: the GNSS driver nodes fed faulty byte streams through a pseudo-terminal, with their own criteria
-(agnav_sim_eval.bench.faults_drivers). `--write-docs` replaces only the rows, totals and sections of the graphs
+(agnav_sim_eval.bench.faults_drivers). `--write-docs PATH` replaces only the rows, totals and sections of the graphs
 run and keeps the others' results.
 """
 import argparse
