@@ -1,5 +1,7 @@
-"""Minimal diagnostic updater (diagnostic_updater is not on PyPI): named checks published at 1 Hz."""
+"""Minimal diagnostic updater (diagnostic_updater is not on PyPI): named checks published every
+`diagnostic_updater.period` seconds (that package's parameter, default 1.0 s, read-only here)."""
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from rcl_interfaces.msg import FloatingPointRange, ParameterDescriptor
 
 OK, WARN, ERROR, STALE = (DiagnosticStatus.OK, DiagnosticStatus.WARN, DiagnosticStatus.ERROR,
                           DiagnosticStatus.STALE)
@@ -8,12 +10,19 @@ OK, WARN, ERROR, STALE = (DiagnosticStatus.OK, DiagnosticStatus.WARN, Diagnostic
 class Diagnostics:
     """Collects named checks of one node; each check returns (level, message, {key: value})."""
 
+    PERIOD = "diagnostic_updater.period"
+
     def __init__(self, node, hardware_id, period=1.0):
         self._node = node
         self._hardware_id = hardware_id
         self._checks = []
+        if not node.has_parameter(self.PERIOD):  # as diagnostic_updater: one parameter per node
+            node.declare_parameter(self.PERIOD, float(period), ParameterDescriptor(
+                description="s between /diagnostics messages of this node", read_only=True,
+                floating_point_range=[FloatingPointRange(from_value=0.01, to_value=3600.0)]))
+        self.period = node.get_parameter(self.PERIOD).value
         self._pub = node.create_publisher(DiagnosticArray, "/diagnostics", 10)
-        self._timer = node.create_timer(period, self.publish)
+        self._timer = node.create_timer(self.period, self.publish)
 
     def add(self, name, check):
         """Register `check()` under `<node name>: <name>`."""
