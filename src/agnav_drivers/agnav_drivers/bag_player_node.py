@@ -7,7 +7,8 @@ that a lagging subscriber in another process cannot take yet is held and retried
 node slows the replay instead of losing data.
 `external_drive`: no timer and no flow control; the owner calls play() (agnav run's deterministic replay, where
 agnav_common.local_bus delivers every message to the whole graph before publish() returns).
-Publishes /clock from the bag timeline (a recorded /clock is not replayed) and /tf_static transient-local.
+Publishes /clock from the bag timeline (a recorded /clock is not replayed) and /tf_static transient-local; a bag
+/map_datum only when no node of the graph publishes one.
 `progress` shows a tqdm bar on stderr when it is a terminal (nothing in files and CI logs).
 """
 import itertools
@@ -52,6 +53,7 @@ class BagPlayerNode(Node):
                                 start_offset=p["start_offset"], cache_dir=p["cache_dir"] or None)
         self.publishers_ = {}
         self.skipped = {}
+        self.withheld = []  # latched bag topics the graph publishes itself
         self.published = 0
         self.received = 0
         self.retries = 0
@@ -93,16 +95,24 @@ class BagPlayerNode(Node):
     def _diagnose(self):
         level = WARN if self.skipped else OK
         return level, "finished" if self.finished else "playing", {
-            "published": self.published, "retries": self.retries, "skipped_topics": ",".join(self.skipped) or "none"}
+            "published": self.published, "retries": self.retries, "skipped_topics": ",".join(self.skipped) or "none",
+            "withheld_topics": ",".join(self.withheld) or "none"}
 
     def _check_sole_publisher(self):
         """A node that publishes a replayed topic would mix its output into the recording's input (and into the
-        probes' count): refuse to play; `remap` (a config's bag_remap) moves the bag's topic aside."""
-        for topic, pub in self.publishers_.items():
-            if topic not in LATCHED_TOPICS and self.count_publishers(pub.topic_name) > 1:
+        probes' count): refuse to play; `remap` (a config's bag_remap) moves the bag's topic aside. A latched output
+        that the graph publishes itself (the navigation node's /map_datum) is withheld instead: the graph's value
+        is the one in force, so a recording holds one datum. /tf_static adds up over publishers: always replayed."""
+        for topic, pub in list(self.publishers_.items()):
+            if topic == "/tf_static" or self.count_publishers(pub.topic_name) <= 1:
+                continue
+            if topic not in LATCHED_TOPICS:
                 raise RuntimeError(f"another node publishes {pub.topic_name}, which the bag replays as {topic}: "
                                    "remap the bag topic (player parameter remap, config bag_remap), or leave it "
                                    "out (exclude, agnav run --exclude)")
+            self.withheld.append(topic)
+            self.destroy_publisher(self.publishers_.pop(topic))
+            self.get_logger().info(f"{pub.topic_name} is published by the graph: the bag's {topic} is not replayed")
 
     def _restart(self):
         self._iter = iter(self.source)
