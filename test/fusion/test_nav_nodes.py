@@ -79,7 +79,7 @@ def test_nav_sensor_module_node_publishes_finite_odometry(ros):
     assert last.header.frame_id == "map" and last.child_frame_id == "base_link"
     values = [last.pose.pose.position.x, last.pose.pose.position.y, *last.pose.covariance, *last.twist.covariance]
     assert np.all(np.isfinite(values))
-    assert node.nsm.counters["imu_bad_value"] == 1
+    assert node.backend.counters["imu_bad_value"] == 1
     node.destroy_node()
 
 

@@ -1,7 +1,8 @@
 """Graph test: the first 45 s of bags/asphalt_loop through the real nodes (`agnav run nsm` in a subprocess),
 scored with agnav_sim_eval.evaluate against the bag's ground truth. Bounds sit well inside the raw sensors'
 errors (integrated gyro heading 6.4 deg, raw DGPS 7.5 cm; docs/benchmarks/thesis.md) and catch the failures
-this graph has had (uninitialised heading published: yaw 80 deg; a fix without its velocity)."""
+this graph has had (uninitialised heading published: yaw 80 deg; a fix without its velocity). The same for the
+navigation node's `ins` backend: `agnav run ins` on the first 60 s of bags/mems_field equals the offline pipeline."""
 import math
 import os
 import subprocess
@@ -18,24 +19,45 @@ from agnav_common.bagio import filter_bag, typestore  # noqa: E402
 from rosbags.highlevel import AnyReader  # noqa: E402
 
 SECONDS = 45.0
+INS_SECONDS = 60.0
 REPO = Path(__file__).resolve().parents[2]
+
+
+def run_graph(tmp, config, src, seconds, processes=False):
+    """`agnav run config` on the first `seconds` of bag `src` -> (that bag, the recording)."""
+    bag, out = tmp / "head", tmp / "out"
+    with AnyReader([src]) as reader:
+        end = reader.start_time + int(seconds * 1e9)
+    filter_bag(src, bag, lambda topic, t: t <= end)
+    env = dict(os.environ, ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
+    proc = subprocess.run([sys.executable, "-m", "agnav_bringup.cli", "run", config, "--bag", str(bag),
+                           "--record", str(out), "--quiet", "--no-eval", *(["--processes"] if processes else [])],
+                          cwd=REPO, env=env, capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    return bag, out
+
+
+def offline_and_published(config, bag, out):
+    """(t, position, orientation, pose covariance, speed) rows of the offline pipeline's states for `bag` and of the
+    graph's /odometry/filtered in `out`."""
+    from agnav_bringup.graph_config import load_config
+    from agnav_common.frames import quaternion_from_euler
+    from agnav_sim_eval.offline import replay as offline_replay
+    states, _ = offline_replay(load_config(config), bag)
+    graph = read_bag(out, ["/odometry/filtered"])["/odometry/filtered"]
+    offline = np.array([[s.t, *s.position, *quaternion_from_euler(*s.rpy), *s.pose_cov.ravel(), s.speed]
+                        for s in states])
+    published = np.array([[t, *(getattr(m.pose.pose.position, k) for k in "xyz"),
+                           *(getattr(m.pose.pose.orientation, k) for k in "xyzw"), *m.pose.covariance,
+                           m.twist.twist.linear.x] for t, m in graph])
+    return offline, published
 
 
 @pytest.fixture(scope="module", params=[False, True], ids=["one_process", "processes"])
 def replay(tmp_path_factory, request):
     """The graph in one process (rate 0), or one OS process per node over DDS (its default paced rate)."""
-    tmp = tmp_path_factory.mktemp("nsm_graph")
-    bag, out = tmp / "asphalt_head", tmp / "out"
-    src = REPO / "bags" / "asphalt_loop"
-    with AnyReader([src]) as reader:
-        end = reader.start_time + int(SECONDS * 1e9)
-    filter_bag(src, bag, lambda topic, t: t <= end)
-    env = dict(os.environ, ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
-    proc = subprocess.run([sys.executable, "-m", "agnav_bringup.cli", "run", "nsm", "--bag", str(bag),
-                           "--record", str(out), "--quiet", "--no-eval", *(["--processes"] if request.param else [])],
-                          cwd=REPO, env=env, capture_output=True, text=True, timeout=300)
-    assert proc.returncode == 0, proc.stdout + proc.stderr
-    return bag, out
+    return run_graph(tmp_path_factory.mktemp("nsm_graph"), "nsm", REPO / "bags" / "asphalt_loop", SECONDS,
+                     request.param)
 
 
 def test_graph_accuracy_against_truth(replay):
@@ -76,14 +98,7 @@ def test_gnss_correction_finds_the_attitude_of_each_fix(replay):
 def test_offline_pipeline_equals_the_graph(replay, request):
     """What we measure is what ships: the bag through agnav_sim_eval.offline (the node's NavigationPipeline, its
     parameters, messages in log order) gives the graph's /odometry/filtered in one process bit for bit."""
-    from agnav_bringup.graph_config import load_config
-    from agnav_sim_eval.offline import replay as offline_replay
-    bag, out = replay
-    states, _ = offline_replay(load_config("nsm"), bag)
-    graph = read_bag(out, ["/odometry/filtered"])["/odometry/filtered"]
-    offline = np.array([[s.t, *s.position, *s.pose_cov.ravel(), s.speed] for s in states])
-    published = np.array([[t, m.pose.pose.position.x, m.pose.pose.position.y,
-                           m.pose.pose.position.z, *m.pose.covariance, m.twist.twist.linear.x] for t, m in graph])
+    offline, published = offline_and_published("nsm", *replay)
     if "processes" in request.node.callspec.id:  # over DDS topics may interleave differently: close, not equal
         assert abs(len(published) - len(offline)) < 0.02 * len(offline)
         return
@@ -107,3 +122,16 @@ def test_odom_is_continuous_rep105(replay):
     steps = np.hypot(*np.diff(odom[:, 1:], axis=0).T) / np.maximum(np.diff(odom[:, 0]) / 0.01, 1.0)
     assert steps.max() < 0.01  # 0.8 m/s: 8 mm per 10 ms sample
     assert np.ptp(map_odom, axis=0).max() > 0.01  # corrections exist, and went here
+
+
+def test_offline_ins_pipeline_equals_the_ins_graph(tmp_path):
+    """The `ins` backend likewise: `agnav run ins` (nav_sensor_module_node, estimator ins) on the first 60 s of
+    bags/mems_field (unknown start heading, in-motion alignment) publishes bit for bit what agnav_sim_eval.offline's
+    pipeline for config ins gives, so `agnav eval` scores both alike; and it tracks the truth."""
+    bag, out = run_graph(tmp_path, "ins", REPO / "bags" / "mems_field", INS_SECONDS)
+    offline, published = offline_and_published("ins", bag, out)
+    assert published.shape == offline.shape and len(offline) > 4000
+    assert np.array_equal(published[:, 1:], offline[:, 1:])
+    metrics = evaluate_bags(out, bag)[0]
+    assert metrics["datum"]["output_has_map_datum"]
+    assert metrics["horizontal_cm"]["rms"] < 10.0 and metrics["roll_deg"]["rms"] < 0.5

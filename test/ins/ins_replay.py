@@ -1,6 +1,7 @@
-"""Replays bags/mems_field, clean or with one fault of agnav_sim_eval.fault_injection, through ins_node's callbacks in
-one process on a simulated clock, capturing /odometry/filtered and the node's /diagnostics: sampled once per second
-as its 1 Hz timer does, and whenever the node publishes them at once (on a new input problem).
+"""Replays bags/mems_field, clean or with one fault of agnav_sim_eval.fault_injection, through ins_node's callbacks (the
+navigation node with the `ins` backend) in one process on a simulated clock, capturing /odometry/filtered and the
+node's /diagnostics: sampled once per second as its 1 Hz timer does, and whenever the node publishes them at once (on
+a new input problem).
 
 No DDS in the loop: each bag message is handed to the callback of its topic at its recording time (the node clock
 follows the bag, as under `agnav run` with use_sim_time), so a replay is fast and deterministic.
@@ -14,8 +15,7 @@ from pathlib import Path
 import numpy as np
 
 BAG = Path(__file__).resolve().parents[2] / "bags" / "mems_field"
-INPUTS = ("/tf_static", "/map_datum", "/imu/data_raw", "/gnss/fix", "/gnss/vel", "/gnss/status",
-          "/ground_truth/odometry")
+INPUTS = ("/tf_static", "/map_datum", "/imu/data_raw", "/gnss/fix", "/gnss/vel", "/ground_truth/odometry")
 
 
 @functools.lru_cache(maxsize=2)
@@ -118,9 +118,9 @@ def replay(messages, parameters=(), publish_from=0.0):
         Parameter("use_sim_time", value=True), Parameter("publish_tf", value=False), *parameters])
     node.odom_pub, node.imu_pub, node.tf_out = _Capture(), _Capture(), _Capture()
     clock = node.get_clock()
-    callbacks = {"/tf_static": node.tf.add, "/imu/data_raw": node.on_imu, "/gnss/fix": node.on_fix,
-                 "/gnss/vel": node.on_vel, "/gnss/status": node.on_status}
-    checks = {"inputs": node.check_inputs, "filter": node.check_filter}
+    callbacks = {"/tf_static": node.tf.add, "/imu/data_raw": node.on_imu, "/gnss/fix": node.pipeline.on_fix,
+                 "/gnss/vel": node.pipeline.on_velocity}
+    checks = {"inputs": node.check_inputs, "state": node.check_state}
     run = Run(node.odom_pub.msgs, node=node)
 
     def sample(t):
@@ -128,7 +128,7 @@ def replay(messages, parameters=(), publish_from=0.0):
 
     node.diag.publish = lambda: sample(clock.now().nanoseconds * 1e-9 - base)   # urgent ones, at the node time
     next_diag = 1.0
-    node.publish = lambda: None
+    node.publish = lambda state: None
     for t, topic, _, msg in messages:
         if t >= publish_from and "publish" in vars(node):
             del node.publish                # the node's own method again

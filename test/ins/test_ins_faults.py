@@ -112,7 +112,8 @@ def test_stuck_imu_is_caught_within_0_1_s(rclpy_module, messages):
     run.node.destroy_node()
     first = min(t for t, d in run.diagnostics if d["inputs"][2].get("recent_imu_stuck"))
     assert T0 < first <= T0 + 0.1
-    assert run.node.guard.totals["imu_stuck"] >= 190 and run.node.ekf.stats["bridged"]["imu_gap"] == 1
+    backend = run.node.backend
+    assert backend.guard.totals["imu_stuck"] >= 190 and backend.ekf.stats["bridged"]["imu_gap"] == 1
 
 
 def test_clean_run_covariance_is_honest(rclpy_module):

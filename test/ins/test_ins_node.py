@@ -1,5 +1,6 @@
-"""rclpy test of ins_node: the first 40 s of bags/mems_field (MEMS IMU + RTK, unknown start heading) published
-in-process -> finite /odometry/filtered close to the truth, /imu/data, /map_datum; bad inputs counted."""
+"""rclpy test of ins_node (nav_sensor_module_node with the `ins` backend): the first 40 s of bags/mems_field (MEMS
+IMU + RTK, unknown start heading) published in-process -> finite /odometry/filtered close to the truth, /imu/data,
+/map_datum; bad inputs counted."""
 import math
 from pathlib import Path
 
@@ -94,36 +95,40 @@ def test_ins_node_tracks_the_simulated_run(ros):
         errors.append(math.hypot(o.pose.pose.position.x - p.position.x, o.pose.pose.position.y - p.position.y))
     late = np.array(errors[-1000:])                 # last 10 s, after the in-motion alignment
     assert late.max() < 0.1
-    assert node.guard.totals.get("imu_backwards_stamp") == 1      # the repeated sample
-    assert node.guard.totals.get("imu_bad_value") == 1 and not node.ekf.stats["rejected"]   # never reaches the EKF
-    h = node.check_filter()[2]
+    guard = node.backend.guard
+    assert guard.totals.get("imu_backwards_stamp") == 1      # the repeated sample
+    assert guard.totals.get("imu_bad_value") == 1 and not node.backend.ekf.stats["rejected"]   # never reaches the EKF
+    h = node.check_state()[2]
     assert h["mode"] == "gnss_aided" and h["gnss_epochs"] > 100
     node.destroy_node()
     src.destroy_node()
 
 
 def test_ins_node_reports_missing_accelerometers(ros):
+    from rclpy.parameter import Parameter
     from sensor_msgs.msg import Imu
 
     from agnav_common.diagnostics import ERROR
     from agnav_common.stamps import to_stamp
     from agnav_fusion.ins_node import InsNode
+    from agnav_fusion.nav_sensor_module_node import NavSensorModuleNode
 
-    node = InsNode()
-    msg = Imu()
-    msg.header.stamp = to_stamp(100.0)
-    msg.linear_acceleration_covariance[0] = -1.0
-    node.on_imu(msg)
-    level, text, values = node.check_inputs()
-    assert level == ERROR and "accelerometers" in text and values["no_accel"] == 1
-    node.destroy_node()
+    for node in (InsNode(), NavSensorModuleNode(parameter_overrides=[Parameter("estimator", value="ins")])):
+        msg = Imu()
+        msg.header.stamp = to_stamp(100.0)
+        msg.linear_acceleration_covariance[0] = -1.0
+        node.on_imu(msg)
+        level, text, values = node.check_inputs()
+        assert level == ERROR and "accelerometer" in text and values["imu_no_accel"] == 1
+        node.destroy_node()
 
 
 def test_ins_node_checks_gnss_stamps_values_and_covariances(ros):
     """The front end's rules (InputGuard): NaN / negative / indefinite covariances are rejected, an all-zero one is
     the default until the receiver gave a good one and then that one, tiny ones too; NO_FIX fixes never used (not
-    even as the datum), a lone fix far ahead of the IMU time rejected without shutting out the next ones; the inputs
-    diagnostic shows each problem and forgets it after its window (IMU time)."""
+    even as the datum), a lone fix far ahead of the IMU time rejected without shutting out the next ones; a velocity
+    with a bad covariance dropped (its fix used alone), an all-zero one the default, small variances raised; the
+    inputs diagnostic shows each problem and forgets it after its window (IMU time)."""
     from geometry_msgs.msg import TwistWithCovarianceStamped
     from rclpy.parameter import Parameter
     from rclpy.time import Time
@@ -163,42 +168,52 @@ def test_ins_node_checks_gnss_stamps_values_and_covariances(ros):
         m.twist.covariance = [float(v) for v in c.ravel()]
         return m
 
+    fused = []                                      # the GNSS epochs that reach the filter
+    add_gnss = node.backend.ekf.add_gnss
+    node.backend.ekf.add_gnss = lambda g: (fused.append(g), add_gnss(g))[1]
     good = np.eye(3) * 1e-4
-    rejected = {"gnss_no_fix": fix(99.90, good, status=-1, lat=0.0, lon=0.0),
-                "gnss_nan_covariance": fix(99.91, np.full((3, 3), math.nan)),
-                "gnss_negative_covariance": fix(99.92, -good),
-                "gnss_indefinite_covariance": fix(99.93, [[1e-4, 1e-3, 0], [1e-3, 1e-4, 0], [0, 0, 1e-4]]),
+    guard = node.backend.guard
+    rejected = {"gnss_no_fix": fix(98.30, good, status=-1, lat=0.0, lon=0.0),
+                "gnss_nan_covariance": fix(98.31, np.full((3, 3), math.nan)),
+                "gnss_negative_covariance": fix(98.32, -good),
+                "gnss_indefinite_covariance": fix(98.33, [[1e-4, 1e-3, 0], [1e-3, 1e-4, 0], [0, 0, 1e-4]]),
                 "gnss_stamp_off_reference": fix(1100.0, good)}
     for name, msg in rejected.items():
-        node.on_fix(msg)
-        assert node.pending_fix is None, name
-        assert node.guard.totals.get(name) == 1, name
-    assert node.plane is None                       # the NO_FIX fix did not become the datum
-    node.on_fix(fix(99.935, np.zeros((3, 3))))      # all zero: not given -> the default
-    assert np.allclose(node.pending_fix.pos_cov_enu, np.eye(3) * node.default_fix_sigma ** 2)
-    node.on_fix(fix(99.94, good * 2))               # a good one, then all zero and tiny ones: that one
-    for t, cov in ((99.945, np.zeros((3, 3))), (99.95, np.diag([1e-9, 1e-4, 1e-4]))):
-        node.on_fix(fix(t, cov))
-        assert np.allclose(node.pending_fix.pos_cov_enu, good * 2)
-    assert node.guard.totals.get("gnss_zero_covariance") == 1 and node.guard.totals["gnss_floored_covariance"] == 2
+        node.pipeline.on_fix(msg)
+        assert not fused, name
+        assert guard.totals.get(name) == 1, name
+        if name == "gnss_no_fix":
+            assert node.pipeline.plane is None      # the NO_FIX fix did not become the datum
+    node.pipeline.on_fix(fix(98.35, np.zeros((3, 3))))      # all zero: not given -> the default
+    assert np.allclose(fused[-1].pos_cov_enu, np.eye(3) * node.backend.settings.default_fix_sigma ** 2)
+    node.pipeline.on_fix(fix(98.40, good * 2))               # a good one, then all zero and tiny ones: that one
+    for t, cov in ((98.45, np.zeros((3, 3))), (98.50, np.diag([1e-9, 1e-4, 1e-4]))):
+        node.pipeline.on_fix(fix(t, cov))
+        assert np.allclose(fused[-1].pos_cov_enu, good * 2)
+    assert guard.totals.get("gnss_zero_covariance") == 1 and guard.totals["gnss_floored_covariance"] == 2
 
-    for name, cov in (("vel_nan_covariance", np.full((3, 3), math.nan)), ("vel_negative_covariance", -good)):
-        node.on_vel(vel(99.96 + 0.001 * len(node.guard.totals), cov))
-        assert not node.velocities, name
-        assert node.guard.totals.get(name) == 1, name
-    node.on_vel(vel(99.98, np.zeros((3, 3))))
-    node.on_vel(vel(99.99, np.diag([1e-4, 0.0, 1e-4])))
-    assert np.allclose(node.velocities[0][2], np.eye(3) * node.default_vel_sigma ** 2)
-    assert np.allclose(np.diag(node.velocities[1][2]), [1e-4, node.min_vel_sigma ** 2, 1e-4])
+    settings = node.backend.settings                # velocities go to the filter with the fix of their epoch
+    for t, name, cov in ((98.8, "vel_nan_covariance", np.full((3, 3), math.nan)),
+                         (99.0, "vel_negative_covariance", -good)):
+        node.pipeline.on_velocity(vel(t, cov))
+        node.pipeline.on_fix(fix(t, good))
+        assert fused[-1].t == t and fused[-1].vel_enu is None, name
+        assert guard.totals.get(name) == 1, name
+    for t, cov in ((99.2, np.zeros((3, 3))), (99.4, np.diag([1e-4, 0.0, 1e-4]))):
+        node.pipeline.on_velocity(vel(t, cov))
+        node.pipeline.on_fix(fix(t, good))
+    assert np.allclose(fused[-2].vel_cov_enu, np.eye(3) * settings.default_vel_sigma ** 2)
+    assert np.allclose(np.diag(fused[-1].vel_cov_enu), [1e-4, settings.min_vel_sigma ** 2, 1e-4])
 
     level, message, values = node.check_inputs()
-    assert level == WARN and "gnss_nan_covariance 1" in message and values["recent_gnss_no_fix"] == 1
+    assert level == WARN and "1 gnss_nan_covariance" in message and values["recent_gnss_no_fix"] == 1
     clock.set_ros_time_override(Time(seconds=106))  # the window has passed (IMU time): the old problems are gone
     for k in range(4):                              # (a step of 6 s is believed after 3 more stamps)
         imu.header.stamp = to_stamp(106.0 + 0.01 * k)
         imu.angular_velocity.x = 1e-3 * k
         node.on_imu(imu)
     level, message, values = node.check_inputs()   # what is left: no fix for 6 s, overdue
-    assert values["total_gnss_no_fix"] == 1 and [k for k in values if k.startswith("recent_")] == \
-        ["recent_gnss_overdue"] and level == WARN and "gnss_overdue 1" in message
+    problems = [k for k in values if k.startswith("recent_") and k not in ("recent_imu", "recent_gnss")]
+    assert values["gnss_no_fix"] == 1 and problems == ["recent_gnss_overdue"], values
+    assert level == WARN and "1 gnss_overdue" in message
     node.destroy_node()

@@ -3,19 +3,21 @@ radar speed on /wheel/odometry: nav_msgs/Odometry twist.linear.x with its covari
 -> /odometry/filtered at the IMU rate (frame map, child base_link, pose + twist covariance), TF map->odom->base_link
 (REP-105: odom->base_link dead-reckoned and continuous, the fixes' corrections in map->odom), /map_datum (latched).
 
-A thin wrapper: every message goes unchanged to agnav_fusion.pipeline.NavigationPipeline (front end + the
-NavSensorModule backend), which the offline replay and the benchmarks drive the same way. The node owns topics,
-parameters, TF (mounts in: base_link->imu_link rotation, ->gnss_link and ->inclinometer_link lever arms; poses out),
+A thin wrapper: every message goes unchanged to agnav_fusion.pipeline.NavigationPipeline (front end + the backend
+its `estimator` parameter selects in agnav_fusion.backends: NavSensorModule for `agnav`/`thesis`, the GNSS/INS
+InsNavigation for `ins` (gyro + accelerometer; /inclinometer unused), each with its own settings as parameters),
+which the offline replay and the benchmarks drive the same way. The node owns topics, parameters, TF (mounts in:
+base_link->imu_link rotation and translation, ->gnss_link and ->inclinometer_link lever arms; poses out),
 diagnostics and time. Nothing is published on /odometry/filtered or TF until heading and position are initialised
 (diagnostic "initialising"); rejected inputs are counted on /diagnostics over a recent window; outputs never hold NaN.
 """
 from dataclasses import dataclass
 
 import numpy as np
-from agnav_common.diagnostics import OK, WARN, Diagnostics
+from agnav_common.diagnostics import ERROR, OK, WARN, Diagnostics
 from agnav_common.frames import quaternion_from_euler
 from agnav_common.node_main import main_for
-from agnav_common.parameters import declare, leaves
+from agnav_common.parameters import declare, descriptor, leaves
 from agnav_common.qos import LATCHED_QOS, PUBLISHER_QOS, subscribe_input
 from agnav_common.stamps import to_stamp
 from agnav_common.tf import TfBuffer, TransformBroadcaster
@@ -26,11 +28,11 @@ from rclpy.node import Node
 from scipy.spatial.transform import Rotation
 from sensor_msgs.msg import Imu, NavSatFix
 
-from agnav_fusion.nav_sensor_module import MOUNTS, NavSensorModule, NavSensorModuleSettings
+from agnav_fusion.backends import ESTIMATOR_DOC, make_backend, settings_for
 from agnav_fusion.navigation_output import map_datum_message, pose_transforms
 from agnav_fusion.odom_frame import OdomFrame
 from agnav_fusion.front_end import Urgent
-from agnav_fusion.pipeline import FrontEndSettings, NavigationPipeline
+from agnav_fusion.pipeline import NavigationPipeline
 
 
 def imu_message(s, frame_id, max_yaw_variance=None):
@@ -82,39 +84,43 @@ class NavNodeSettings:
     imu_timeout: float = 0.5              # s of node time without an IMU message: diagnostics say stale
 
 
-def _settings():
-    """(settings, fields left out) behind the node's parameters: node, front end, module (mounts come from TF)."""
-    return [(NavNodeSettings(), ()), (FrontEndSettings(), ()), (NavSensorModuleSettings(), MOUNTS)]
+def _settings(estimator):
+    """(settings, fields left out) behind the node's parameters: node, front end, the estimator's backend."""
+    return [(NavNodeSettings(), ())] + settings_for(estimator)
 
 
-def declare_all(node):
-    """Declare node, front-end and module settings (descriptors, read-only); returns the three settings."""
-    return tuple(declare(node, obj, skip=skip) for obj, skip in _settings())
+def declare_all(node, estimator="agnav"):
+    """Declare `estimator` (default given) and then the node, front-end and backend settings (descriptors,
+    read-only); returns the backend built from its settings, and the node and front-end settings."""
+    estimator = node.declare_parameter("estimator", estimator, descriptor("estimator", estimator, ESTIMATOR_DOC)).value
+    node_settings, front, backend = (declare(node, obj, skip=skip) for obj, skip in _settings(estimator))
+    return make_backend(estimator, backend), node_settings, front
 
 
-def parameter_entries():
-    """[(name, default, description)] of every parameter (tools/gen_params.py writes the params file from it)."""
-    return [entry for obj, skip in _settings() for entry in leaves(obj, skip=skip)]
+def parameter_entries(estimator="agnav"):
+    """[(name, default, description)] of every parameter (tools/gen_params.py writes the params files from it)."""
+    return [("estimator", estimator, ESTIMATOR_DOC)] + [
+        entry for obj, skip in _settings(estimator) for entry in leaves(obj, skip=skip)]
 
 
 class NavSensorModuleNode(Node):
     uses_gnss = True
+    estimator = "agnav"     # the default of the `estimator` parameter
 
     def __init__(self, name="nav_sensor_module_node", **kwargs):
         super().__init__(name, **kwargs)
-        node_settings, front, module = declare_all(self)
+        self.backend, node_settings, front = declare_all(self, self.estimator)
         prefix = node_settings.frame_prefix
         self.frames = {k: prefix + getattr(node_settings, f"{k}_frame") for k in ("odom", "imu", "gnss", "inclinometer")}
         self.frames.update(map=node_settings.map_frame, base=prefix + node_settings.base_frame)
         self.publish_tf = node_settings.publish_tf
         self.imu_timeout = node_settings.imu_timeout
-        self.nsm = NavSensorModule(module)
-        self.pipeline = NavigationPipeline(self.nsm, front, on_datum=self.publish_datum if self.uses_gnss else None)
+        self.pipeline = NavigationPipeline(self.backend, front, on_datum=self.publish_datum if self.uses_gnss else None)
         self.tf = TfBuffer(self)
         self.tf_out = TransformBroadcaster(self)
         self.odom_frame = OdomFrame()
         subscribe_input(self, Imu, "imu/data_raw", self.on_imu)
-        if front.tilt_source == "inclinometer":
+        if front.tilt_source == "inclinometer" and not self.pipeline.strapdown:
             subscribe_input(self, Inclination, "inclinometer", self.pipeline.on_inclinometer)
         if self.uses_gnss:
             self.odom_pub = self.create_publisher(Odometry, "odometry/filtered", PUBLISHER_QOS)
@@ -130,7 +136,7 @@ class NavSensorModuleNode(Node):
         self.diag.add("inputs", self.check_inputs)
         self.diag.add("state", self.check_state)
         self.urgent = Urgent()
-        self.nsm.guard.on_problem = self.on_problem
+        self.backend.guard.on_problem = self.on_problem
 
     def on_problem(self, event):
         """A new input problem is on /diagnostics at once (rate-limited), not at the next tick."""
@@ -148,7 +154,8 @@ class NavSensorModuleNode(Node):
             return False
         imu, gnss = mounts
         incl = self.tf.lookup(self.frames["base"], self.frames["inclinometer"])
-        self.pipeline.set_mounts(Rotation.from_quat(imu[1]).as_matrix(), gnss[0], imu[0] if incl is None else incl[0])
+        self.pipeline.set_mounts(Rotation.from_quat(imu[1]).as_matrix(), gnss[0], imu[0] if incl is None else incl[0],
+                                 imu[0])
         return True
 
     def publish_datum(self, lat, lon, alt, stamp):
@@ -176,24 +183,31 @@ class NavSensorModuleNode(Node):
 
     def check_inputs(self):
         """Rejections over the guard's recent window (IMU time) and IMU staleness (node time): the present."""
-        recent = self.nsm.guard.recent()
+        recent = self.backend.guard.recent()
         bad = {k: v for k, v in recent.items() if k not in ("imu", "gnss", "wheel")}  # the rest are rejections
-        values = dict(self.nsm.counters, **{f"recent_{k}": v for k, v in recent.items()})
+        values = dict(self.backend.counters, **{f"recent_{k}": v for k, v in recent.items()})
+        if recent.get("imu_no_accel"):
+            return ERROR, "/imu/data_raw has no accelerometer (linear_acceleration_covariance[0] == -1): " \
+                          f"estimator {self.get_parameter('estimator').value} needs it", values
         if self.last_imu_arrival is not None and self.node_time() - self.last_imu_arrival > self.imu_timeout:
             return WARN, f"no IMU message for {self.node_time() - self.last_imu_arrival:.1f} s", values
         message = ", ".join(f"{v} {k}" for k, v in sorted(bad.items())) or "inputs OK"
         return (WARN if bad or self.pipeline.imu_rotation is None else OK), message, values
 
     def check_state(self):
-        s = self.nsm.state()
-        if s is None:
-            return WARN, "no IMU yet", {}
-        if not self.ready(s):
-            return WARN, "initialising", {"heading_valid": s.heading_valid, "position_valid": s.position_valid}
-        values = {"published": self.published, "dead_reckoning": s.dead_reckoning, "heading_valid": s.heading_valid,
-                  "position_sigma_m": float(np.sqrt(s.pose_cov[0, 0] + s.pose_cov[1, 1]))}
-        ok = s.heading_valid and s.position_valid and not s.dead_reckoning
-        return (OK if ok else WARN), ("tracking" if ok else "degraded"), values
+        """Initialised, tracking or dead reckoning (INS: outage), with the backend's health (INS: alignment)."""
+        s = self.backend.state()
+        health = self.backend.health() if hasattr(self.backend, "health") else {}
+        if s is None or not self.ready(s):
+            return WARN, "no IMU yet" if s is None else "initialising", dict(health, **({} if s is None else {
+                "heading_valid": s.heading_valid, "position_valid": s.position_valid}))
+        sigma = float(np.sqrt(s.pose_cov[0, 0] + s.pose_cov[1, 1]))
+        values = dict(health, published=self.published, dead_reckoning=s.dead_reckoning,
+                      heading_valid=s.heading_valid, position_sigma_m=sigma)
+        problems = [text for text, bad in (("dead reckoning", s.dead_reckoning),
+                                           (health.get("alignment"), health.get("alignment", "aligned") != "aligned"))
+                    if bad]
+        return (WARN if problems else OK), ", ".join(problems) or "tracking", values
 
 
 main = main_for(NavSensorModuleNode)

@@ -13,8 +13,11 @@ Front end (what every estimator needs once):
   velocity has been seen a fix waits for its own up to `velocity_wait` s of IMU time; without /gnss/vel the
   velocity of the fixes over the last `fix_velocity_baseline` m (at most FIX_HISTORY fixes back) is used;
 - the tilt source: inclinometer messages, or the accelerometer's gravity direction (`tilt_source: accelerometer`).
-The backend (NavSensorModule: estimator `agnav` or `thesis`) guards values and stamps, replays late fixes against
-its IMU history and keeps the covariances.
+The backend (NavSensorModule: estimator `agnav` or `thesis`; InsNavigation: `ins`) guards values and stamps,
+replays late fixes against its IMU history and keeps the covariances. A `strapdown` backend (the INS integrates
+specific force at the IMU point, on the earth) also gets the accelerometer (base_link axes; an IMU message without
+one is counted `imu_no_accel`), the base_link -> imu_link translation, the map plane and the 3x3 ENU covariance of
+/gnss/vel (None: unknown) in place of its per-axis horizontal variance.
 """
 import math
 from dataclasses import dataclass
@@ -57,6 +60,7 @@ class NavigationPipeline:
             raise ValueError(f"tilt_source must be inclinometer or accelerometer, not {s.tilt_source!r}")
         self.backend = backend
         self.guard = backend.guard
+        self.strapdown = getattr(backend, "strapdown", False)
         self.on_datum = on_datum
         self.imu_rotation = None
         self.plane = None
@@ -66,35 +70,45 @@ class NavigationPipeline:
         self.last_imu_t = 0.0
         self.configured_datum = len(s.datum) >= 3
         if self.configured_datum:
-            self.plane = LocalTangentPlane(*(float(v) for v in s.datum[:3]))
+            self._set_plane(LocalTangentPlane(*(float(v) for v in s.datum[:3])))
 
     def start(self):
         """Announce a configured datum (call once the consumer of on_datum is ready)."""
         if self.configured_datum and self.on_datum:
             self.on_datum(*self.settings.datum[:3], None)
 
-    def set_mounts(self, imu_rotation, gnss_lever, incl_lever):
-        """base_link <- imu_link rotation (3x3) and the base_link -> gnss_link / inclinometer_link translations."""
+    def set_mounts(self, imu_rotation, gnss_lever, incl_lever, imu_lever=(0.0, 0.0, 0.0)):
+        """base_link <- imu_link rotation (3x3) and the base_link -> gnss_link / inclinometer_link (/ imu_link)
+        translations."""
         self.imu_rotation = np.asarray(imu_rotation, dtype=float)
-        self.backend.set_mounts(gnss_lever, incl_lever)
+        self.backend.set_mounts(gnss_lever, incl_lever, *((imu_lever,) if self.strapdown else ()))
+
+    def _set_plane(self, plane):
+        self.plane = plane
+        if self.strapdown:
+            self.backend.set_plane(plane)
 
     def _set_datum(self, lat, lon, alt, stamp):
-        self.plane = LocalTangentPlane(float(lat), float(lon), float(alt))
+        self._set_plane(LocalTangentPlane(float(lat), float(lon), float(alt)))
         if self.on_datum:
             self.on_datum(lat, lon, alt, stamp)
 
     # ---- inputs -----------------------------------------------------------------------------------------
     def on_imu(self, msg):
+        if self.strapdown and msg.linear_acceleration_covariance[0] == -1.0:  # REP-145: no accelerometer here
+            self.guard.count("imu_no_accel")
+            return None
         if self.imu_rotation is None:
             self.guard.count("missing_tf")
             return None
         t = stamp_seconds(msg.header)
         self._submit_fixes(lambda fix: fix[3] < t)
+        r, w, a = self.imu_rotation, msg.angular_velocity, msg.linear_acceleration
+        accel = r @ np.array([a.x, a.y, a.z]) if self.strapdown or self.settings.tilt_source == "accelerometer" \
+            else None
         if self.settings.tilt_source == "accelerometer":
-            a = msg.linear_acceleration
-            self.backend.inclinometer(t, *accelerometer_tilt(self.imu_rotation @ np.array([a.x, a.y, a.z])))
-        w = msg.angular_velocity
-        state = self.backend.imu(t, self.imu_rotation @ np.array([w.x, w.y, w.z]))
+            self.backend.inclinometer(t, *accelerometer_tilt(accel))
+        state = self.backend.imu(t, r @ np.array([w.x, w.y, w.z]), *((accel,) if self.strapdown else ()))
         if state is not None:
             self.last_imu_t = max(self.last_imu_t, state.t)
         return state
@@ -116,7 +130,12 @@ class NavigationPipeline:
     def on_velocity(self, msg):
         v, c = msg.twist.twist.linear, msg.twist.covariance
         # -1: unknown (the module's velocity_sigma); NaN or a negative variance: the velocity is dropped, counted
-        var = None if c[0] == -1.0 else ((c[0] + c[7]) / 2 if c[0] >= 0 and c[7] >= 0 else math.nan)
+        if c[0] == -1.0:
+            var = None
+        elif self.strapdown:
+            var = np.asarray(c, dtype=float).reshape(6, 6)[:3, :3]
+        else:
+            var = (c[0] + c[7]) / 2 if c[0] >= 0 and c[7] >= 0 else math.nan
         self.velocities = (self.velocities + [(stamp_seconds(msg.header), np.array([v.x, v.y, v.z]), var)])[-10:]
         self._submit_fixes(lambda fix: self._velocity_at(fix[0]) is not None)
 
@@ -142,8 +161,10 @@ class NavigationPipeline:
 
     # ---- fix / velocity pairing -----------------------------------------------------------------------
     def _velocity_at(self, t):
-        """(ENU velocity, per-axis variance or None) of /gnss/vel at the fix epoch t, else None."""
-        return next(((v, var) for tv, v, var in self.velocities if abs(tv - t) <= VEL_MATCH_S), None)
+        """(ENU velocity, its variance or None) of the /gnss/vel nearest the fix epoch t within VEL_MATCH_S, else
+        None."""
+        near = min(self.velocities, key=lambda tv: abs(tv[0] - t), default=None)
+        return near[1:] if near is not None and abs(near[0] - t) <= VEL_MATCH_S else None
 
     def _fix_velocity(self, t, enu, cov):
         """(ENU velocity, per-axis variance) from the latest earlier fix at least fix_velocity_baseline m away

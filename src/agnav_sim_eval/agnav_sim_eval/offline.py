@@ -5,9 +5,7 @@ need the pipeline's insides (RTS smoother, cost per sample); test_nsm_graph chec
 """
 from agnav_common.bagio import typestore
 from agnav_common.frames import rotation_matrix
-from agnav_common.parameters import apply
-from agnav_fusion.nav_sensor_module import NavSensorModule, NavSensorModuleSettings
-from agnav_fusion.pipeline import FrontEndSettings, NavigationPipeline
+from agnav_fusion.backends import pipeline_from_parameters
 from rosbags.highlevel import AnyReader
 from scipy.spatial.transform import Rotation
 
@@ -28,9 +26,7 @@ def node_parameters(config, executable=NODE):
 def pipeline_for(config, executable=NODE, **overrides):
     """The NavigationPipeline the config's navigation node builds (same parameters, same defaults); `overrides`
     replace parameters by name (e.g. estimator="thesis", incl_zero_deg=[...])."""
-    params = dict(node_parameters(config, executable), **overrides)
-    return NavigationPipeline(NavSensorModule(apply(NavSensorModuleSettings(), params)),
-                              apply(FrontEndSettings(), params))
+    return pipeline_from_parameters(dict(node_parameters(config, executable), **overrides))
 
 
 def set_mounts(pipeline, config, tf_messages, frames=FRAMES):
@@ -45,7 +41,8 @@ def set_mounts(pipeline, config, tf_messages, frames=FRAMES):
     base, imu, gnss, incl = frames
     if (base, imu) not in edges or (base, gnss) not in edges:
         raise ValueError(f"no mount for {imu} or {gnss}")
-    pipeline.set_mounts(edges[(base, imu)][1], edges[(base, gnss)][0], edges.get((base, incl), edges[(base, imu)])[0])
+    pipeline.set_mounts(edges[(base, imu)][1], edges[(base, gnss)][0], edges.get((base, incl), edges[(base, imu)])[0],
+                        edges[(base, imu)][0])
     pipeline.start()
 
 

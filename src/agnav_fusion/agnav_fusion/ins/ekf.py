@@ -61,6 +61,15 @@ class InsEkf:
             return UNINITIALIZED
         return ALIGNED if self.heading_sigma() < self.s.aligned_heading_sigma else ALIGNING
 
+    @property
+    def imu_period(self):
+        """Nominal IMU period [s] (running mean of the regular intervals; 1 before two samples)."""
+        return self._dt or 1.0
+
+    def gnss_age(self):
+        """s of IMU time since the last accepted GNSS epoch (inf before any)."""
+        return self.t - self._last_accept_t if self._last_accept_t is not None else math.inf
+
     def heading_sigma(self):
         """1-sigma heading uncertainty [rad] (γ ≈ δα once small)."""
         return math.sqrt(max(self.p[em.GAMMA, em.GAMMA], 0.0)) if self.p is not None else math.inf
@@ -162,7 +171,7 @@ class InsEkf:
                 out[f"{kind}_{name}"] = count
         if self.p is not None:
             out["heading_sigma_deg"] = math.degrees(self.heading_sigma())
-            out["gnss_age_s"] = (self.t - self._last_accept_t) if self._last_accept_t is not None else math.inf
+            out["gnss_age_s"] = self.gnss_age()
         return out
 
     # ----------------------------------------------------------------- internals
