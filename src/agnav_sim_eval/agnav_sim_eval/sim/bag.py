@@ -6,7 +6,7 @@ from agnav_common.qos import bag_profiles
 from rosbags.rosbag2 import Writer
 from rosbags.rosbag2.enums import CompressionFormat, CompressionMode, StoragePlugin
 
-from .messages import TOPIC_TYPES, run_rows
+from .messages import MESSAGE_TYPES, run_rows
 
 
 def record(sim, out_dir, overwrite=False):
@@ -28,7 +28,7 @@ def record(sim, out_dir, overwrite=False):
         connections = {}
         for when, topic, msg in rows:
             if topic not in connections:
-                connections[topic] = writer.add_connection(topic, TOPIC_TYPES[topic], typestore=factory.ts,
+                connections[topic] = writer.add_connection(topic, MESSAGE_TYPES[topic], typestore=factory.ts,
                                                            offered_qos_profiles=bag_profiles(topic, None))
             writer.write(connections[topic], int(round((factory.t0 + when) * 1e9)), factory.serialize(topic, msg))
             counts[topic] = counts.get(topic, 0) + 1

@@ -22,6 +22,8 @@ TOPIC_TYPES = {
     "/tf_static": "tf2_msgs/msg/TFMessage",
     "/map_datum": "sensor_msgs/msg/NavSatFix",
 }
+# topics of optional simulator sensors (scenario.wheel), not published by the live sim node
+MESSAGE_TYPES = {**TOPIC_TYPES, "/wheel/odometry": "nav_msgs/msg/Odometry"}
 LATCHED_TOPICS = ("/tf_static", "/map_datum")
 
 
@@ -135,11 +137,29 @@ class MessageFactory:
         st = T["agnav_msgs/msg/GnssStatus"](header=self.header(t, "gnss_link"), fix_type=int(d["fix_type"]),
                                             satellites_used=int(d["satellites"]), hdop=float(d["hdop"]),
                                             correction_age=float(d["correction_age"]))
+        if not self.sim.scenario.gnss_vel:
+            return [("/gnss/fix", arrive, fix), ("/gnss/status", arrive, st)]
         return [("/gnss/fix", arrive, fix), ("/gnss/vel", arrive, vel), ("/gnss/status", arrive, st)]
+
+    def _wheel(self, t, d):
+        T = self.T
+        cov = np.zeros(36)
+        cov[0] = self.sim.wheel.variance
+        cov[7] = cov[14] = cov[21] = cov[28] = cov[35] = UNKNOWN_VARIANCE
+        msg = T["nav_msgs/msg/Odometry"](
+            header=self.header(t, "odom"), child_frame_id="base_link",
+            pose=T["geometry_msgs/msg/PoseWithCovariance"](
+                pose=T["geometry_msgs/msg/Pose"](position=T["geometry_msgs/msg/Point"](x=0.0, y=0.0, z=0.0),
+                                                 orientation=self._quat((0.0, 0.0, 0.0))),
+                covariance=np.eye(6).ravel() * UNKNOWN_VARIANCE),
+            twist=T["geometry_msgs/msg/TwistWithCovariance"](
+                twist=T["geometry_msgs/msg/Twist"](linear=self._vec((d["speed"], 0.0, 0.0)),
+                                                   angular=self._vec((0.0, 0.0, 0.0))), covariance=cov))
+        return [("/wheel/odometry", t, msg)]
 
     def serialize(self, topic, msg):
         """CDR bytes of msg for topic."""
-        return bytes(self.ts.serialize_cdr(msg, TOPIC_TYPES[topic]))
+        return bytes(self.ts.serialize_cdr(msg, MESSAGE_TYPES[topic]))
 
 
 

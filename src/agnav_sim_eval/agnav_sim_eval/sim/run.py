@@ -105,7 +105,7 @@ def simulate(scenario="asphalt_loop", seed=0, messages=False, **overrides):
     """Run a scenario to the end with the built-in driver; deterministic per seed. -> SimRun (with the ROS messages
     of the run, in the order of its bag, when `messages`)."""
     sim = TractorSimulator(scenario, seed, **overrides)
-    by_kind = {k: [] for k in ("truth", "imu", "incl", "mag", "gnss")}
+    by_kind = {k: [] for k in ("truth", "imu", "incl", "mag", "gnss", "wheel")}
 
     def collect(kind, stamp, data):
         by_kind[kind].append((stamp, data))

@@ -11,6 +11,8 @@ from .sensors.gnss import FIX_DGPS, FIX_RTK_FIXED, GnssParams
 from .sensors.gyro import GyroParams
 from .sensors.inclinometer import InclParams
 from .sensors.magnetic_field import DisturbanceParams
+from .sensors.wheel import WheelParams
+from .sway import SwayParams
 from .terrain import TerrainParams
 from .vehicle import VehicleParams
 
@@ -108,7 +110,11 @@ def mounts(imu=(0.3, 0.0, 1.2), gnss=(0.0, 0.0, 2.0), mag=(0.5, 0.0, 2.1), incl=
 
 @dataclass(frozen=True)
 class Scenario:
-    """One simulated test: route and driver, vehicle, terrain, sensors (None = absent), mounts and datum."""
+    """One simulated test: route and driver, vehicle, terrain, sensors (None = absent), mounts and datum.
+
+    sway: tyre/suspension sway on top of the terrain; crab_gain: side-slip angle per radian of terrain roll (downhill,
+    through crab_tau_s); mount_errors: {frame: rpy rad} of the true mount beyond the nominal one in /tf_static;
+    gnss_vel: publish /gnss/vel; wheel: /wheel/odometry speed with slip."""
 
     name: str
     description: str
@@ -126,6 +132,12 @@ class Scenario:
     gnss: GnssParams | None = None
     mounts: dict = field(default_factory=mounts)
     datum: tuple = BRAIN
+    sway: SwayParams | None = None
+    crab_gain: float = 0.0
+    crab_tau_s: float = 2.0
+    mount_errors: dict = field(default_factory=dict)
+    gnss_vel: bool = True
+    wheel: WheelParams | None = None
 
 
 def mems_field(name, gnss):
@@ -207,6 +219,12 @@ def _build():
                  gyro=env05f((0.0, 0.0, 0.028)), incl=None, gnss=AGGPS132, datum=SAPPORO),
         mems_field("mems_field", F9P_RTK),
         mems_field("mems_field_dgps", F9P_DGPS),
+        Scenario("rough_road_sway", "R5-7..10 with tyre/suspension sway: ≈50 m rough road at 0.8 m/s, roll/pitch "
+                 "≈1.8° r.m.s. in 0.3–2 Hz (peaks ≈±5°), attitude package on the roof beside the antenna (2 m): raw "
+                 "inclinometer errors of Table 5.4 (roll 3.28°, pitch 1.84°)", route=straight(50.0),
+                 terrain=TerrainParams(rough_rms_deg=0.8, rough_wavelength_m=(1.5, 4.0)),
+                 sway=SwayParams(roll_rms_deg=2.0, pitch_rms_deg=1.8, band_hz=(0.3, 2.0), pitch_band_hz=(0.3, 0.8)),
+                 gyro=env05f((0.126, 0.178, -0.21)), mounts=mounts(imu=(0.3, 0.0, 2.0)), **ch5),
     ]
 
 

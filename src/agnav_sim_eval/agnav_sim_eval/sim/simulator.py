@@ -14,12 +14,15 @@ from .sensors.fluxgate import Fluxgate
 from .sensors.gnss import GnssReceiver
 from .sensors.gyro import Gyro
 from .sensors.inclinometer import Inclinometer
+from .sensors.lowpass import FirstOrderLag
 from .sensors.magnetic_field import MagneticEnvironment
+from .sensors.wheel import WheelSpeed
+from .sway import Sway
 from .terrain import Terrain, attitude_on_terrain
 from .vehicle import BicycleModel, BicycleState
 
 GRAVITY = 9.80665
-_STREAMS = ("terrain", "driver", "gyro", "accel", "incl", "magnetic", "fluxgate", "gnss")
+_STREAMS = ("terrain", "driver", "gyro", "accel", "incl", "magnetic", "fluxgate", "gnss", "sway", "wheel")
 
 
 def resolve(scenario, **overrides):
@@ -67,10 +70,17 @@ class TractorSimulator:
         self.magnetic = MagneticEnvironment(sc.datum, sc.magnetic, rng["magnetic"])
         self.fluxgate = Fluxgate(sc.mag, rng["fluxgate"]) if sc.mag else None
         self.gnss = GnssReceiver(sc.gnss, rng["gnss"]) if sc.gnss else None
-        self.mounts = {name: _Mount(*m) for name, m in sc.mounts.items()}
+        self.sway = Sway(sc.sway, rng["sway"]) if sc.sway else None
+        self.wheel = WheelSpeed(sc.wheel, rng["wheel"]) if sc.wheel else None
+        self._crab = FirstOrderLag(sc.crab_tau_s)
+        self.crab = 0.0
+        zero = (0.0, 0.0, 0.0)  # true mount = nominal (/tf_static) + mount error
+        self.mounts = {name: _Mount(xyz, np.add(rpy, sc.mount_errors.get(name, zero)))
+                       for name, (xyz, rpy) in sc.mounts.items()}
         self.k = -1
         self.travelled = 0.0
         self._stopped_since = None
+        self._end_at = None
         self._pending_gnss = []
         self._prev = None
         self._truth = None
@@ -97,13 +107,18 @@ class TractorSimulator:
         if cmd is None:
             cmd = self.driver.steering_command(st.x, st.y, st.yaw, st.speed, self.dt)
         v_cmd = self.driver.speed_command(self.t - self.dt, self.travelled)
-        self.travelled += self.vehicle.step(self.dt, cmd, v_cmd)
+        self.travelled += self.vehicle.step(self.dt, cmd, v_cmd, self.crab)
 
     def _kinematics(self):
         """Truth at the current tick; rates and vertical speed are backward differences over the last tick."""
         sc, st = self.scenario, self.vehicle.state
         z, roll, pitch = attitude_on_terrain(self.terrain, st.x, st.y, st.yaw, sc.vehicle.wheelbase_m,
                                              sc.vehicle.track_m)
+        if sc.crab_gain:  # slides downhill: roll + (right side down) -> velocity right of the heading
+            self.crab = float(self._crab.update(-sc.crab_gain * roll, self.dt)) * min(1.0, st.speed / 0.3)
+        if self.sway is not None:
+            d_roll, d_pitch = self.sway.angles(self.t, st.speed)
+            roll, pitch = roll + d_roll, pitch + d_pitch
         if self._prev is None:
             w, vz = np.zeros(3), 0.0
         else:
@@ -113,7 +128,7 @@ class TractorSimulator:
             w = euler_rates_to_body(0.5 * (roll + p["roll"]), 0.5 * (pitch + p["pitch"]), *rates)
             vz = (z - p["z"]) / self.dt
         return dict(t=self.t, x=st.x, y=st.y, z=z, roll=roll, pitch=pitch, yaw=st.yaw,
-                    vx=st.speed * math.cos(st.yaw), vy=st.speed * math.sin(st.yaw), vz=vz,
+                    vx=st.speed * math.cos(st.yaw + self.crab), vy=st.speed * math.sin(st.yaw + self.crab), vz=vz,
                     wx=w[0], wy=w[1], wz=w[2], speed=st.speed, steer=st.steer)
 
     def _sensor_motion(self, mount, rot, vel, w):
@@ -161,19 +176,24 @@ class TractorSimulator:
             mag = self.mounts["mag_link"]
             p_mag = pos + rot @ mag.r
             field = self.fluxgate.sample(1.0 / self.scenario.mag_rate_hz, rot @ mag.rot,
-                                         self.magnetic.field(p_mag[0], p_mag[1]))
+                                         self.magnetic.field(p_mag[0], p_mag[1], t))
             out.append(("mag", t, dict(field=field)))
+
+        if self.wheel and self._due(self.wheel.params.rate_hz):
+            out.append(("wheel", t, dict(speed=self.wheel.sample(1.0 / self.wheel.params.rate_hz, tr["speed"]))))
 
         if self.gnss:
             ant = self.mounts["gnss_link"]
             arm, v_ant, _ = self._sensor_motion(ant, rot, vel, w)
             if self._due(self.gnss.params.rate_hz):
-                enu, v_meas = self.gnss.sample(1.0 / self.gnss.params.rate_hz, pos + arm, v_ant)
+                enu, v_meas = self.gnss.sample(1.0 / self.gnss.params.rate_hz, pos + arm, v_ant, t)
+            if self._due(self.gnss.params.rate_hz) and self.gnss.available(t):
                 lat, lon, alt = self.plane.to_geodetic(*enu)
+                fix_type, cov = self.gnss.status(t)
                 self._pending_gnss.append((t, dict(
-                    t_arrival=t + self.gnss.params.latency_s, lat=float(lat), lon=float(lon), alt=float(alt),
-                    enu=enu, cov=self.gnss.position_cov, vel=v_meas, vel_cov=self.gnss.velocity_cov,
-                    fix_type=self.gnss.params.fix_type, satellites=self.gnss.params.satellites,
+                    t_arrival=self.gnss.arrival(t), lat=float(lat), lon=float(lon), alt=float(alt),
+                    enu=enu, cov=cov, vel=v_meas, vel_cov=self.gnss.velocity_cov,
+                    fix_type=fix_type, satellites=self.gnss.params.satellites,
                     hdop=self.gnss.params.hdop, correction_age=self.gnss.params.correction_age_s,
                     truth_enu=pos + arm)))
             while self._pending_gnss and self._pending_gnss[0][1]["t_arrival"] <= t + 1e-9:
@@ -187,7 +207,9 @@ class TractorSimulator:
         p = self.scenario.driver
         if self.travelled >= self.driver.length - 0.05 and tr["speed"] == 0.0:
             self._stopped_since = self._stopped_since if self._stopped_since is not None else self.t
-            self.done = self.t - self._stopped_since >= p.end_standstill_s and not self._pending_gnss
+            if self.t - self._stopped_since >= p.end_standstill_s:  # then deliver the epochs measured until now
+                self._end_at = self._end_at if self._end_at is not None else self.t
+                self.done = not any(epoch <= self._end_at for epoch, _ in self._pending_gnss)
         max_t = p.start_standstill_s + p.end_standstill_s + 3.0 * self.driver.length / p.speed_mps + 30.0
         self.done = self.done or self.t >= max_t
 

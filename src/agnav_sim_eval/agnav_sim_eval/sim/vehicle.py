@@ -33,8 +33,9 @@ class BicycleModel:
         self.params = params
         self.state = state
 
-    def step(self, dt, steer_cmd, speed_cmd):
-        """Advance dt seconds toward the commanded front-wheel angle (rad) and speed (m/s)."""
+    def step(self, dt, steer_cmd, speed_cmd, crab=0.0):
+        """Advance dt seconds toward the commanded front-wheel angle (rad) and speed (m/s); crab: side-slip angle
+        (rad, + left) between the velocity and the heading."""
         p, s = self.params, self.state
         target = max(-p.max_steer_rad, min(p.max_steer_rad, steer_cmd))
         rate = (target - s.steer) / max(p.steer_tau_s, dt)
@@ -45,7 +46,7 @@ class BicycleModel:
         v = 0.5 * (v0 + s.speed)
         yaw_rate = v * math.tan(s.steer) / p.wheelbase_m
         mid_yaw = s.yaw + 0.5 * yaw_rate * dt
-        s.x += v * math.cos(mid_yaw) * dt
-        s.y += v * math.sin(mid_yaw) * dt
+        s.x += v * math.cos(mid_yaw + crab) * dt
+        s.y += v * math.sin(mid_yaw + crab) * dt
         s.yaw = math.remainder(s.yaw + yaw_rate * dt, 2.0 * math.pi)
         return v * dt

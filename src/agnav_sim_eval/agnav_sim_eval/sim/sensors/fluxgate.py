@@ -13,7 +13,8 @@ MILLIGAUSS = 1e-7  # tesla
 @dataclass(frozen=True)
 class FluxgateParams:
     """Data-sheet errors in mG/deg: zero bias ±10 mG, hard iron of the vehicle (uniform ±, constant in the
-    sensor frame), axis misalignment ±1°, linearity/scale ±0.5 %, ripple 1.25 mG rms, DC-20 Hz, ±1000 mG."""
+    sensor frame), axis misalignment ±1°, linearity/scale ±0.5 %, ripple 1.25 mG rms, DC-20 Hz, ±1000 mG;
+    soft_iron: symmetric distortion of the vehicle's steel (entries uniform ±, fraction; 0 for the bare sensor)."""
 
     zero_bias_mg: float = 10.0
     hard_iron_mg: float = 30.0
@@ -22,6 +23,7 @@ class FluxgateParams:
     noise_mg: float = 1.25
     bandwidth_hz: float = 20.0
     range_mg: float = 1000.0
+    soft_iron: float = 0.0
 
 
 class Fluxgate:
@@ -35,6 +37,9 @@ class Fluxgate:
         self.hard_iron = MILLIGAUSS * (rng.uniform(-params.hard_iron_mg, params.hard_iron_mg, 3)
                                        + rng.uniform(-params.zero_bias_mg, params.zero_bias_mg, 3))
         self._lpf = FirstOrderLag.from_bandwidth(params.bandwidth_hz)
+        if params.soft_iron:
+            s = rng.uniform(-params.soft_iron, params.soft_iron, (3, 3))
+            self.matrix = (np.eye(3) + 0.5 * (s + s.T)) @ self.matrix
 
     def sample(self, dt, r_enu_from_sensor, field_enu):
         """Measured field (tesla, sensor frame); r_enu_from_sensor rotates sensor-frame vectors into ENU."""

@@ -18,7 +18,9 @@ def earth_field_enu(lat_deg, lon_deg, alt_m, year=2025.0):
 @dataclass(frozen=True)
 class DisturbanceParams:
     """Random-Fourier 2-D field: horizontal rms ≈ H·tan(base_deg), growing to peak_deg between ramp distances
-    along ramp_yaw (e.g. concrete at the end of a field), correlation length ≈ wavelength_m/2π."""
+    along ramp_yaw (e.g. concrete at the end of a field), correlation length ≈ wavelength_m/2π.
+    passing: ((t_centre s, duration s, magnitude mG), ...) transient disturbances of a random fixed direction
+    (another vehicle or a steel structure passing by), raised-cosine in time."""
 
     base_deg: float = 0.3
     peak_deg: float = 0.3
@@ -26,6 +28,7 @@ class DisturbanceParams:
     ramp_m: tuple = (0.0, 1.0)
     wavelength_m: tuple = (20.0, 80.0)
     components: int = 16
+    passing: tuple = ()
 
 
 class MagneticEnvironment:
@@ -43,6 +46,9 @@ class MagneticEnvironment:
         # unit per-axis rms: a horizontal component of rms H·tan(g) turns the field by ≈ g rms
         self._vec = direction * math.hypot(self.b_earth[0], self.b_earth[1]) * math.sqrt(2.0 / n)
         self._axis = np.array([math.cos(params.ramp_yaw), math.sin(params.ramp_yaw)])
+        if params.passing:
+            d = rng.standard_normal((len(params.passing), 3))
+            self._passing_dir = d / np.linalg.norm(d, axis=1, keepdims=True)
 
     def gain_deg(self, x, y):
         """Disturbance size (deg of horizontal field direction) at (x, y)."""
@@ -50,7 +56,16 @@ class MagneticEnvironment:
         frac = np.clip((np.dot(self._axis, (x, y)) - p.ramp_m[0]) / (p.ramp_m[1] - p.ramp_m[0]), 0.0, 1.0)
         return p.base_deg + (p.peak_deg - p.base_deg) * frac
 
-    def field(self, x, y):
-        """Field (tesla, ENU) at map position (x, y)."""
+    def passing_field(self, t):
+        """Sum of the passing disturbances (tesla, ENU) at time t (s)."""
+        b = np.zeros(3)
+        for (tc, dur, mg), u in zip(self.params.passing, getattr(self, "_passing_dir", ())):
+            if abs(t - tc) < dur / 2:
+                b += mg * 1e-7 * 0.5 * (1 + math.cos(2 * math.pi * (t - tc) / dur)) * u
+        return b
+
+    def field(self, x, y, t=None):
+        """Field (tesla, ENU) at map position (x, y) and time t (s; None: without the passing disturbances)."""
         s = np.sin(self._k @ (x, y) + self._phase)
-        return self.b_earth + math.tan(math.radians(self.gain_deg(x, y))) * (s @ self._vec)
+        b = self.b_earth + math.tan(math.radians(self.gain_deg(x, y))) * (s @ self._vec)
+        return b if t is None or not self.params.passing else b + self.passing_field(t)
