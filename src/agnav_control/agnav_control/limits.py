@@ -7,8 +7,8 @@ from dataclasses import dataclass
 class SteeringLimits:
     """Front-wheel angle and slew limits (SPEC §11.9 [IMPL]: first-order actuator of a tractor)."""
 
-    max_angle: float = math.radians(35.0)  # rad
-    max_rate: float = math.radians(40.0)   # rad/s; 0 disables the slew limit
+    max_angle: float = math.radians(35.0)  # rad, largest front-wheel angle commanded either way
+    max_rate: float = math.radians(40.0)   # rad/s, slew limit of the wheel angle; 0 disables it
 
 
 class SteeringLimiter:

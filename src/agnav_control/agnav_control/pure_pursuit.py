@@ -8,11 +8,11 @@ from .limits import SteeringLimiter, SteeringLimits
 
 @dataclass
 class PurePursuitSettings:
-    lookahead_base: float = 2.0       # m, L0
-    lookahead_per_speed: float = 1.5  # s, k
-    lookahead_min: float = 2.0        # m
-    lookahead_max: float = 15.0       # m
-    wheelbase: float = 2.9            # m
+    lookahead_base: float = 2.0       # m, L0 of the lookahead L = L0 + k v
+    lookahead_per_speed: float = 1.5  # s, k of the lookahead L = L0 + k v
+    lookahead_min: float = 2.0        # m, shortest lookahead
+    lookahead_max: float = 15.0       # m, longest lookahead
+    wheelbase: float = 2.9            # m, rear to front axle
     limits: SteeringLimits = field(default_factory=SteeringLimits)
 
 

@@ -10,7 +10,7 @@ from .limits import SteeringLimiter, SteeringLimits
 class StanleySettings:
     gain: float = 1.0        # 1/s, k in atan(k e / v)
     soft_speed: float = 0.5  # m/s added to v so the law stays bounded at low speed
-    heading_gain: float = 1.0
+    heading_gain: float = 1.0  # rad/rad on the heading error
     wheelbase: float = 2.9   # m, base_link (rear axle) to front axle
     limits: SteeringLimits = field(default_factory=SteeringLimits)
 

@@ -5,13 +5,16 @@ Odometry stamps (issue 16): one StreamClock per stream rejects bad, backwards an
 more than `watchdog.max_stamp_lead` s ahead of the reference time; the watchdog trips when the last stamp is more
 than `watchdog.max_stamp_age` s behind it. The reference time is the node clock (sim time under use_sim_time);
 without use_sim_time, a published /clock (a live simulator stamps on its own clock) is the reference instead."""
+import inspect
 import math
+from dataclasses import dataclass, field, replace
 
 from agnav_common.diagnostics import ERROR, OK, WARN, Diagnostics
 from agnav_common.frames import euler_from_quaternion
 from agnav_common.geodesy import LocalTangentPlane
 from agnav_common.input_guard import EventWindow, StreamClock, StreamClockSettings
 from agnav_common.node_main import main_for
+from agnav_common.parameters import bounded, declare, leaves
 from agnav_common.qos import LATCHED_QOS, PUBLISHER_QOS, SENSOR_QOS, subscribe_input
 from agnav_common.stamps import to_sec
 from agnav_common.variance_weighted_average import VwaSettings
@@ -23,7 +26,7 @@ from sensor_msgs.msg import NavSatFix
 from std_msgs.msg import Header
 from std_srvs.srv import SetBool, Trigger
 
-from .controllers import CONTROLLERS, make_controller, scalar_fields
+from .controllers import CONTROLLERS
 from .guidance_line import GuidanceLine, LineTeacher, ParallelPasses, VariableTargetLine
 from .limits import SteeringLimits
 from .watchdog import Watchdog, WatchdogSettings, odometry_sample
@@ -31,46 +34,99 @@ from .watchdog import Watchdog, WatchdogSettings, odometry_sample
 MAX_DT = 0.5  # s, longest controller step accepted between two odometry messages
 
 
+@dataclass
+class SteeringWatchdog(WatchdogSettings):
+    rate: float = field(default=100.0, metadata=bounded(0.1, 1000.0))  # Hz of the watchdog timer
+    max_stamp_jump: float = 1.0  # s, a larger step of the odometry stamps is held until 3 stamps confirm it
+    max_stamp_lead: float = 0.1  # s an odometry stamp may lie ahead of the reference time
+
+
+_TEACHER = inspect.signature(LineTeacher).parameters
+
+
+@dataclass
+class TeachSettings:
+    min_distance: float = _TEACHER["min_distance"].default    # m to drive before a taught line is accepted
+    heading_source: str = _TEACHER["heading_source"].default  # yaw (mean odometry yaw) | track (start-to-end)
+
+
+@dataclass
+class VariableTarget(VwaSettings):
+    window: float = VwaSettings.window      # s, T: the VWA window of the variable target line (Table 2.5)
+    interval: float = VwaSettings.interval  # s, ΔT: target update interval
+    enabled: bool = False                   # move the line to the VWA target while engaged (thesis ch. II)
+
+
+@dataclass
+class LineSettings:
+    frame: str = "map"                  # frame of a and b: map (x, y in m) | latlon (deg, at /map_datum)
+    a: list = field(default_factory=lambda: [0.0, 0.0])  # m or deg, point A of the AB line (x, y or lat, lon)
+    b: list = field(default_factory=lambda: [0.0, 0.0])  # m or deg, point B; a == b: no line from parameters
+
+
+@dataclass
+class EventWindowSettings:
+    window: float = 10.0  # s of recent odometry rejections that /diagnostics describes
+
+
+@dataclass
+class SteeringNodeSettings:
+    controller: str = "pid"  # steering law: one of CONTROLLERS (thesis_pi, pid, stanley, pure_pursuit)
+    max_steering_angle: float = SteeringLimits.max_angle  # rad, largest front-wheel angle commanded either way
+    max_steering_rate: float = SteeringLimits.max_rate    # rad/s, slew limit of the wheel angle; 0 disables it
+    watchdog: SteeringWatchdog = field(default_factory=SteeringWatchdog)
+    diagnostics: EventWindowSettings = field(default_factory=EventWindowSettings)
+    bidirectional: bool = True      # follow the line in whichever direction the vehicle drives along it
+    implement_width: float = 0.0    # m between parallel passes (steering/next_pass); 0: the AB line only
+    teach: TeachSettings = field(default_factory=TeachSettings)
+    variable_target: VariableTarget = field(default_factory=VariableTarget)
+    line: LineSettings = field(default_factory=LineSettings)
+    engage_when_ready: bool = False  # engage once, at the first healthy odometry with a line (unattended runs)
+
+
+def _controller_settings():
+    """{name: settings} of every controller, actuator limits left out (shared: max_steering_*)."""
+    return {name: settings_cls() for name, (_, settings_cls) in CONTROLLERS.items()}
+
+
+def parameter_entries():
+    """[(name, default, description)] of every parameter (tools/gen_params.py writes the params file from it)."""
+    return leaves(SteeringNodeSettings()) + [entry for name, settings in _controller_settings().items()
+                                             for entry in leaves(settings, f"{name}.", skip=("limits",))]
+
+
 class SteeringNode(Node):
     def __init__(self, **kwargs):
         super().__init__("steering_node", **kwargs)
-        p = self._declare
-        self.controller_name = p("controller", "pid")
+        s = declare(self, SteeringNodeSettings())
+        gains = {name: declare(self, settings, f"{name}.", skip=("limits",))
+                 for name, settings in _controller_settings().items()}
+        self.controller_name = s.controller
         if self.controller_name not in CONTROLLERS:
             raise ValueError(f"controller must be one of {sorted(CONTROLLERS)}")
-        limits = SteeringLimits(p("max_steering_angle", SteeringLimits.max_angle),
-                                p("max_steering_rate", SteeringLimits.max_rate))
-        gains = {k: p(f"{self.controller_name}.{k}", v) for k, v in scalar_fields(self.controller_name).items()}
-        self.controller = make_controller(self.controller_name, limits=limits, **gains)
+        LineTeacher(s.teach.min_distance, s.teach.heading_source)  # refuses a bad heading_source at start
+        if s.line.frame not in ("map", "latlon"):
+            raise ValueError("line.frame must be map | latlon")
+        limits = SteeringLimits(s.max_steering_angle, s.max_steering_rate)
+        self.controller = CONTROLLERS[self.controller_name][0](replace(gains[self.controller_name], limits=limits))
         self.limits = limits
-        w = WatchdogSettings()
-        self.watchdog = Watchdog(WatchdogSettings(
-            stale_timeout=p("watchdog.stale_timeout", w.stale_timeout),
-            max_position_std=p("watchdog.max_position_std", w.max_position_std),
-            max_yaw_std=p("watchdog.max_yaw_std", w.max_yaw_std),
-            min_speed=p("watchdog.min_speed", w.min_speed),
-            panic_deceleration=p("watchdog.panic_deceleration", w.panic_deceleration),
-            decel_window=p("watchdog.decel_window", w.decel_window),
-            engage_position_std=p("watchdog.engage_position_std", w.engage_position_std),
-            engage_yaw_std=p("watchdog.engage_yaw_std", w.engage_yaw_std),
-            max_stamp_age=p("watchdog.max_stamp_age", w.max_stamp_age)), on_transition=self._on_transition)
-        self.stamps = StreamClock(StreamClockSettings(
-            max_jump=p("watchdog.max_stamp_jump", 1.0),     # s, a larger step is held until 3 stamps confirm it
-            max_lead=p("watchdog.max_stamp_lead", 0.1)))    # s a stamp may lie ahead of the reference time
-        self.events = EventWindow(p("diagnostics.window", 10.0))  # rejections of the last window s
-        self.bidirectional = p("bidirectional", True)
-        self.implement_width = p("implement_width", 0.0)
-        self.teach_min_distance = p("teach.min_distance", 3.0)
-        self.teach_heading_source = p("teach.heading_source", "yaw")
-        vwa = VwaSettings()
-        self.vwa_settings = VwaSettings(p("variable_target.window", vwa.window), p("variable_target.interval", vwa.interval))
-        self.use_variable_target = p("variable_target.enabled", False)
-        self.line_frame = p("line.frame", "map")  # 'map' (x, y m) or 'latlon' (deg)
-        self.line_a = list(p("line.a", [0.0, 0.0]))
-        self.line_b = list(p("line.b", [0.0, 0.0]))
+        self.watchdog = Watchdog(s.watchdog, on_transition=self._on_transition)
+        self.stamps = StreamClock(StreamClockSettings(max_jump=s.watchdog.max_stamp_jump,
+                                                      max_lead=s.watchdog.max_stamp_lead))
+        self.events = EventWindow(s.diagnostics.window)  # rejections of the last window s
+        self.bidirectional = s.bidirectional
+        self.implement_width = s.implement_width
+        self.teach_min_distance = s.teach.min_distance
+        self.teach_heading_source = s.teach.heading_source
+        self.vwa_settings = VwaSettings(s.variable_target.window, s.variable_target.interval)
+        self.use_variable_target = s.variable_target.enabled
+        self.line_frame = s.line.frame
+        self.line_a = list(s.line.a)
+        self.line_b = list(s.line.b)
         # one explicit engage request from the config, honoured once at the first healthy odometry with a line
         # (unattended simulation runs); a later disengage is final like any other
-        self.engage_pending = p("engage_when_ready", False)
+        self.engage_pending = s.engage_when_ready
+        self.settings = s
 
         self.base_line = self.line = None
         self.passes = None
@@ -93,12 +149,9 @@ class SteeringNode(Node):
         self.create_service(SetBool, "steering/teach", self._srv_teach)
         self.create_service(SetBool, "steering/engage", self._srv_engage)
         self.create_service(Trigger, "steering/next_pass", self._srv_next_pass)
-        self.create_timer(1.0 / p("watchdog.rate", 100.0), self._on_timer)
+        self.create_timer(1.0 / s.watchdog.rate, self._on_timer)
         self.diagnostics = Diagnostics(self, "steering")
         self.diagnostics.add("autosteer", self._diagnose)
-
-    def _declare(self, name, default):
-        return self.declare_parameter(name, default).value
 
     def _now(self) -> float:
         return self.get_clock().now().nanoseconds * 1e-9

@@ -8,8 +8,8 @@ from .limits import SteeringLimiter, SteeringLimits
 
 @dataclass
 class ThesisPISettings:
-    alpha: float = 1.0   # rad steer per rad heading deviation
-    beta: float = 0.18   # rad steer per m lateral deviation
+    alpha: float = 1.0   # rad/rad, steer per heading deviation
+    beta: float = 0.18   # rad/m, steer per lateral deviation
     cross_track: str = "measured"  # 'measured' (position fix) or 'dead_reckoning' (2.7: eps = sum v dt sin dphi)
     fixed_speed: float = 0.0       # m/s used in (2.7) when > 0 (thesis VWA runs: 0.5)
     limits: SteeringLimits = field(default_factory=SteeringLimits)

@@ -15,15 +15,14 @@ POSE_BLOCK = (0, 1, 5)  # x, y, yaw rows/columns of the 6x6 pose covariance the 
 class WatchdogSettings:
     stale_timeout: float = 0.15      # s without odometry -> disengage (neutral by 0.2 s with the timer)
     max_position_std: float = 0.3    # m, sqrt of the larger horizontal position variance
-    max_yaw_std: float = 0.1         # rad
-    min_speed: float = 0.2           # m/s
+    max_yaw_std: float = 0.1         # rad, sqrt of the yaw variance
+    min_speed: float = 0.2           # m/s, slower odometry disengages (no steering at standstill)
     panic_deceleration: float = 3.0  # m/s^2 over decel_window
-    decel_window: float = 0.3        # s
+    decel_window: float = 0.3        # s over which the deceleration is measured
     engage_position_std: float = 0.05  # m, stricter gates for an engage request: the fusion has converged
-    engage_yaw_std: float = 0.01       # rad
-    # s: the last odometry stamp may lie this far behind the reference time (the node clock: sim time under
-    # use_sim_time); checked on every message, timer tick and engage request
-    max_stamp_age: float = 0.3
+    engage_yaw_std: float = 0.01       # rad, stricter yaw gate for an engage request
+    max_stamp_age: float = 0.3         # s the last odometry stamp may lie behind the reference time (the node
+    # clock: sim time under use_sim_time); checked on every message, timer tick and engage request
 
 
 @dataclass(frozen=True)
