@@ -3,7 +3,9 @@ gyros, accelerometers if wired), /inclinometer, /imu/mag, /diagnostics; service
 ~/calibrate_gyro (std_srvs/Trigger) re-measures V_static at standstill. Conversions live in adc.py."""
 from __future__ import annotations
 
+import inspect
 import math
+from dataclasses import dataclass, field
 
 from sensor_msgs.msg import Imu, MagneticField
 from std_srvs.srv import Trigger
@@ -14,34 +16,56 @@ from agnav_common.qos import PUBLISHER_QOS
 from agnav_msgs.msg import Inclination
 
 from .adc import AdcConverter, AdcDecoder, AdcSettings
-from .stream_driver import StreamDriverNode
+from .stream_driver import StreamDriverNode, StreamSettings, stream_parameters
+
+PARAMS_DOC = """Analog sensor box: microcontroller ADC -> adc_sensor_node (frame format in agnav_drivers/adc.py and
+docs/drivers/README.md). Defaults: thesis Ch. V attitude package (3 x Murata ENV-05F-03 gyros, 2 x Omron D5R-L02-15
+inclinometers) plus a Watson FGM-200A fluxgate GDS, 16-bit ADC, 5 V reference."""
+
+
+@dataclass
+class AdcNodeSettings(AdcSettings, StreamSettings):
+    baud: int = 115200          # bit/s of the serial port
+    stale_timeout: float = 0.5  # s without a valid frame -> WARN on /diagnostics
+    stamp_source: str = "host"  # host receive time of the frame (the only source: frames carry no absolute time)
+    frame_mode: str = inspect.signature(AdcDecoder).parameters["mode"].default  # binary (sync + length + CRC-16)
+    # or csv (seq,t_us,code0,...)
+    imu_frame_id: str = "imu_link"                    # frame of /imu/data_raw (gyros, accelerometers)
+    inclinometer_frame_id: str = "inclinometer_link"  # frame of /inclinometer
+    mag_frame_id: str = "mag_link"                    # frame of /imu/mag (fluxgate GDS)
+    bits: int = AdcSettings.bits  # ADC resolution: volts = code * vref / 2^bits
+    channels: list = field(default_factory=lambda: AdcSettings().channels)  # role of each ADC channel in frame
+    # order, "" = unused: gyro_x/y/z, accel_x/y/z, incl_roll, incl_pitch, mag_x/y/z (sensor axes; mounts from TF)
+    gyro_scale: tuple = AdcSettings.gyro_scale  # (deg/s)/V, K of the vibratory gyro, SPEC eq 3.8: omega =
+    # K (V_out - V_static); ENV-05F-03 25 mV/(deg/s) -> 40, ENV-05D-52 22.2 mV/(deg/s) -> 45; a negative K flips an axis
+    static_samples: int = AdcSettings.static_samples  # V_static = mean of this many samples at standstill (thesis:
+    # 1000), on start and on ~/calibrate_gyro (std_srvs/Trigger); no /imu/data_raw before the first
+    incl_zero: tuple = AdcSettings.incl_zero  # V, V0 of angle = (V - V0) / sensitivity (D5R: 2.5 V at 0 deg)
+    incl_sign: tuple = AdcSettings.incl_sign  # thesis convention (pitch nose up) -> REP-103 (nose down)
+    mag_zero: tuple = AdcSettings.mag_zero    # V at zero field (FGM-200A: 0 V at zero field, +-4 V, level-shifted)
+    mag_scale: tuple = AdcSettings.mag_scale  # mG/V (FGM-200A 250 mG/V) -> tesla on /imu/mag (1 mG = 1e-7 T)
+    accel_zero: tuple = AdcSettings.accel_zero  # V, optional accelerometers: a = (V - zero) * scale
+    gyro_noise: float = 0.4     # deg/s rms on /imu/data_raw (ENV-05F-03 < 10 mV rms)
+    accel_noise: float = 0.05   # m/s^2 rms
+    incl_noise: float = 0.5     # deg rms on /inclinometer (thesis: 0.46-0.88 deg on asphalt/grass)
+    mag_noise: float = 1.25     # mG rms on /imu/mag (5 mV ripple)
+
+
+def parameter_entries():
+    return stream_parameters(AdcNodeSettings())
 
 
 class AdcSensorNode(StreamDriverNode):
     def __init__(self, **kwargs):
-        super().__init__("adc_sensor", "adc_sensor", default_baud=115200, stale_timeout=0.5, **kwargs)
-        p = self.declare_parameter
-        d = AdcSettings()
-        self.converter = AdcConverter(AdcSettings(
-            vref=p("vref", d.vref).value, bits=p("bits", d.bits).value, channels=list(p("channels", d.channels).value),
-            gyro_scale=tuple(p("gyro_scale", list(d.gyro_scale)).value),
-            static_samples=p("static_samples", d.static_samples).value,
-            static_max_std=p("static_max_std", d.static_max_std).value,
-            incl_zero=tuple(p("incl_zero", list(d.incl_zero)).value),
-            incl_sensitivity=tuple(p("incl_sensitivity", list(d.incl_sensitivity)).value),
-            incl_sign=tuple(p("incl_sign", list(d.incl_sign)).value),
-            mag_zero=tuple(p("mag_zero", list(d.mag_zero)).value),
-            mag_scale=tuple(p("mag_scale", list(d.mag_scale)).value),
-            accel_zero=tuple(p("accel_zero", list(d.accel_zero)).value),
-            accel_scale=tuple(p("accel_scale", list(d.accel_scale)).value)))
-        self.decoder = AdcDecoder(p("frame_mode", "binary").value)
-        self.imu_frame = p("imu_frame_id", "imu_link").value
-        self.incl_frame = p("inclinometer_frame_id", "inclinometer_link").value
-        self.mag_frame = p("mag_frame_id", "mag_link").value
-        self.gyro_var = math.radians(p("gyro_noise", 0.4).value) ** 2        # (deg/s rms)^2 -> (rad/s)^2
-        self.accel_var = p("accel_noise", 0.05).value ** 2                    # (m/s^2)^2
-        self.incl_var = math.radians(p("incl_noise", 0.5).value) ** 2         # deg rms -> rad^2
-        self.mag_var = (p("mag_noise", 1.25).value * 1e-7) ** 2               # mG rms -> T^2
+        super().__init__("adc_sensor", "adc_sensor", AdcNodeSettings(), **kwargs)
+        s = self.settings
+        self.converter = AdcConverter(s)
+        self.decoder = AdcDecoder(s.frame_mode)
+        self.imu_frame, self.incl_frame, self.mag_frame = s.imu_frame_id, s.inclinometer_frame_id, s.mag_frame_id
+        self.gyro_var = math.radians(s.gyro_noise) ** 2        # (deg/s rms)^2 -> (rad/s)^2
+        self.accel_var = s.accel_noise ** 2                    # (m/s^2)^2
+        self.incl_var = math.radians(s.incl_noise) ** 2        # deg rms -> rad^2
+        self.mag_var = (s.mag_noise * 1e-7) ** 2               # mG rms -> T^2
         self.imu_pub = self.create_publisher(Imu, "imu/data_raw", PUBLISHER_QOS)
         self.incl_pub = self.create_publisher(Inclination, "inclinometer", PUBLISHER_QOS)
         self.mag_pub = self.create_publisher(MagneticField, "imu/mag", PUBLISHER_QOS)

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 from geometry_msgs.msg import TwistWithCovarianceStamped
 from sensor_msgs.msg import Imu, NavSatFix, NavSatStatus, TimeReference
@@ -12,21 +13,28 @@ from agnav_common.stamps import to_stamp
 from agnav_msgs.msg import GnssStatus
 
 from . import gnss_types as g
+from .stream_driver import StreamSettings
 
 NAVSAT_STATUS = {g.FIX_SINGLE: NavSatStatus.STATUS_FIX, g.FIX_DGPS: NavSatStatus.STATUS_SBAS_FIX,
                  g.FIX_RTK_FLOAT: NavSatStatus.STATUS_GBAS_FIX, g.FIX_RTK_FIXED: NavSatStatus.STATUS_GBAS_FIX}
 UNKNOWN = g.UNKNOWN_VARIANCE  # variance of an axis the receiver does not give (INTERFACES)
 
 
+@dataclass
+class GnssStreamSettings(StreamSettings):
+    frame_id: str = "gnss_link"  # antenna frame of the messages (static TF base_link -> gnss_link)
+    service: int = NavSatStatus.SERVICE_GPS  # NavSatStatus.service bitmask (1 GPS, 2 GLONASS, 4 COMPASS, 8 GALILEO)
+    heading_std: float = 1.0     # deg, heading/attitude sigma on /gnss/heading when the receiver gives none
+
+
 class GnssPublishers:
     """/gnss/fix, /gnss/vel, /gnss/status, /gnss/heading (Imu, orientation only), /gnss/time_reference."""
 
-    def __init__(self, node, default_heading_std_deg: float):
-        p = node.declare_parameter
+    def __init__(self, node, settings: GnssStreamSettings):
         self.node = node
-        self.frame_id = p("frame_id", "gnss_link").value
-        self.service = p("service", NavSatStatus.SERVICE_GPS).value
-        self.heading_std = math.radians(p("heading_std", default_heading_std_deg).value)
+        self.frame_id = settings.frame_id
+        self.service = settings.service
+        self.heading_std = math.radians(settings.heading_std)
         self.fix = node.create_publisher(NavSatFix, "gnss/fix", PUBLISHER_QOS)
         self.vel = node.create_publisher(TwistWithCovarianceStamped, "gnss/vel", PUBLISHER_QOS)
         self.status = node.create_publisher(GnssStatus, "gnss/status", PUBLISHER_QOS)

@@ -1,16 +1,44 @@
 """Shared rclpy plumbing of the byte-stream drivers: link parameters, reader thread, link and
-stream diagnostics, stamps. Subclasses implement `handle_bytes(data, host_time)`."""
+stream diagnostics, stamps. Subclasses implement `handle_bytes(data, host_time)` and give their parameters as a
+StreamSettings subclass (agnav_common.parameters: declared once, described, read-only)."""
 from __future__ import annotations
 
 import threading
 import time
+from dataclasses import dataclass
 
 from rclpy.node import Node
 
 from agnav_common.diagnostics import ERROR, OK, WARN, Diagnostics
+from agnav_common.parameters import declare, leaves
 from agnav_common.stamps import to_stamp
 
 from .serial_link import OPEN, ByteLink, LinkSettings
+
+
+STAMP_SOURCES = ("host", "receiver")
+INTERNAL = ("read_size",)  # LinkSettings fields that are no parameters
+
+
+@dataclass
+class StreamSettings(LinkSettings):
+    """Byte source of a driver: `port` (serial), else `host` + `tcp_port`, else `file`."""
+
+    port: str = ""             # serial device, e.g. /dev/serial/by-id/usb-...; a pty /dev/pts/N works too
+    baud: int = LinkSettings.baud  # bit/s of the serial port
+    host: str = ""             # TCP client (e.g. a receiver's server or gpsd's raw port), used when port is empty
+    tcp_port: int = 0          # TCP port of host
+    file: str = ""             # replay a capture (used when port and host are empty), paced at file_rate
+    file_rate: float = 0.0     # bytes/s of a file replay; 0 = baud / 10 (the serial speed)
+    backoff_initial: float = LinkSettings.backoff_initial  # s before reopening an absent device; doubles
+    backoff_max: float = LinkSettings.backoff_max          # s, cap of the doubling back-off
+    stale_timeout: float = 2.0  # s without a valid message -> WARN on /diagnostics
+    stamp_source: str = "host"  # host: receive time of the bytes | receiver: the receiver's time where known
+
+
+def stream_parameters(settings: StreamSettings):
+    """[(name, default, description)] of a driver's parameters (tools/gen_params.py)."""
+    return leaves(settings, skip=INTERNAL)
 
 
 class RateMeter:
@@ -31,15 +59,14 @@ class RateMeter:
 class StreamDriverNode(Node):
     """Reads a ByteLink in a thread and hands bytes with their host receive time to the subclass."""
 
-    def __init__(self, name: str, hardware: str, default_baud: int, stale_timeout: float, **kwargs):
+    def __init__(self, name: str, hardware: str, settings: StreamSettings, **kwargs):
         super().__init__(name, **kwargs)
-        p = self.declare_parameter
-        self.link = ByteLink(LinkSettings(
-            port=p("port", "").value, baud=p("baud", default_baud).value, host=p("host", "").value,
-            tcp_port=p("tcp_port", 0).value, file=p("file", "").value, file_rate=p("file_rate", 0.0).value,
-            backoff_initial=p("backoff_initial", 0.1).value, backoff_max=p("backoff_max", 2.0).value))
-        self.stale_timeout = p("stale_timeout", stale_timeout).value
-        self.use_receiver_time = p("stamp_source", "host").value == "receiver"
+        self.settings = declare(self, settings, skip=INTERNAL)
+        if self.settings.stamp_source not in STAMP_SOURCES:
+            raise ValueError(f"stamp_source must be one of {STAMP_SOURCES}, not {self.settings.stamp_source!r}")
+        self.link = ByteLink(self.settings)
+        self.stale_timeout = self.settings.stale_timeout
+        self.use_receiver_time = self.settings.stamp_source == "receiver"
         self.last_message_time: float | None = None   # time.monotonic() of the last decoded message
         self.published = 0
         self._rates = RateMeter()

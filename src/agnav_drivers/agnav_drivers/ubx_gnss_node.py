@@ -3,22 +3,44 @@
 /gnss/nav_data (when agnav_msgs provides GnssObservations / GnssNavData), /diagnostics."""
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 from agnav_common.node_main import main_for
 
 from . import gnss_types as g
-from .gnss_ros import GnssPublishers
-from .stream_driver import StreamDriverNode
+from .gnss_ros import GnssPublishers, GnssStreamSettings
+from .stream_driver import StreamDriverNode, stream_parameters
 from .ubx import EsfMeasurement, EsfStatus, GnssObservations, NavDataFrame, UbxParser
 from .ubx_raw_ros import RawPublishers
 
 ESF_FUSION = {0: "initialising", 1: "fusion", 2: "suspended", 3: "disabled"}
+PARAMS_DOC = """u-blox UBX receiver (ubx_gnss_node). Enable NAV-PVT (or NAV-PVAT on dead-reckoning modules), NAV-DOP,
+NAV-ATT, ESF-STATUS and, for tight coupling, RXM-RAWX + RXM-SFRBX on the receiver.
+Covariance comes from the receiver: diag(hAcc^2, hAcc^2, vAcc^2) (DIAGONAL_KNOWN), velocity sAcc^2.
+Fix type: carrSoln 2 -> RTK fixed, 1 -> RTK float, diffSoln -> DGPS, fixType 1 -> dead reckoning.
+Corrupt headers (class unknown, or a length that the message cannot have: NAV-PVT 84/92, NAV-PVAT 116, NAV-ATT 32,
+NAV-DOP 18, ESF/RXM lengths from their item counts, others <= 4096 B, or a valid frame inside the awaited payload) are
+skipped at once (counter corrupt_frames); frames keep the host time of their own arrival. Physical limits
+(gnss_types.Limits): |lat| <= 90, |lon| <= 180, altitude -1000..20000 m, speed <= 100 m/s, else the message is dropped
+(counter implausible); hAcc/vAcc/sAcc below 0.01 m(/s) and attitude accuracies below 0.01 deg, e.g. 0, are raised to
+it (counter floored_accuracy), never published as a known zero. No fix -> /gnss/status only (never a position: NaN,
+covariance UNKNOWN). stamp_source receiver: NAV-PVT UTC (valid + fully resolved) / RAWX GPS time - leap seconds."""
+
+
+@dataclass
+class UbxNodeSettings(GnssStreamSettings):
+    baud: int = 38400  # bit/s of the serial port
+
+
+def parameter_entries():
+    return stream_parameters(UbxNodeSettings())
 
 
 class UbxGnssNode(StreamDriverNode):
     def __init__(self, **kwargs):
-        super().__init__("ubx_gnss", "ubx_gnss", default_baud=38400, stale_timeout=2.0, **kwargs)
+        super().__init__("ubx_gnss", "ubx_gnss", UbxNodeSettings(), **kwargs)
         self.parser = UbxParser()
-        self.gnss = GnssPublishers(self, default_heading_std_deg=1.0)
+        self.gnss = GnssPublishers(self, self.settings)
         self.raw = RawPublishers(self)
         self.esf_status: EsfStatus | None = None
         self.esf_measurements = 0

@@ -183,14 +183,11 @@ def test_publisher_never_gives_a_no_fix_a_position():
     from sensor_msgs.msg import NavSatFix, NavSatStatus
 
     from agnav_common.stamps import to_stamp
-    from agnav_drivers.gnss_ros import GnssPublishers
+    from agnav_drivers.gnss_ros import GnssPublishers, GnssStreamSettings
 
     class Node:  # the part of rclpy.Node that GnssPublishers uses
         def __init__(self):
             self.sent = []
-
-        def declare_parameter(self, name, value):
-            return type("P", (), {"value": value})()
 
         def create_publisher(self, msg_type, topic, qos):
             return type("Pub", (), {"publish": lambda _, msg: self.sent.append((topic, msg))})()
@@ -199,7 +196,7 @@ def test_publisher_never_gives_a_no_fix_a_position():
             return to_stamp(host_time)
 
     node = Node()
-    pubs = GnssPublishers(node, 1.0)
+    pubs = GnssPublishers(node, GnssStreamSettings())
     pubs.publish(g.GnssFix(5.0, None, 0.0, 0.0, 0.0, g.FIX_NONE, g.diag3(1e-4, 1e-4, 1e-4), g.COV_DIAGONAL_KNOWN))
     pubs.publish(g.GnssFix(6.0, None, 52.0, 13.0, 90.0, g.FIX_SINGLE, g.diag3(4.0, 4.0, 9.0), g.COV_APPROXIMATED))
     (_, none), (_, good) = node.sent
