@@ -9,6 +9,7 @@ from agnav_common.qos import PUBLISHER_QOS
 from sensor_msgs.msg import Imu
 
 from agnav_fusion.nav_sensor_module_node import NavSensorModuleNode, imu_message
+from agnav_fusion.nav_sensor_module_node import parameter_entries as nav_parameter_entries
 
 UNKNOWN_VARIANCE = 99999.0
 
@@ -34,6 +35,11 @@ class AttitudeNode(NavSensorModuleNode):
                 and self.tf.lookup(self.frames["base"], self.frames["gnss"]) is None:
             self.frames["gnss"] = self.frames["base"]
         return super().mounts_ready()
+
+
+def parameter_entries():
+    """[(name, default, description)]: the navigation node's parameters (tools/gen_params.py)."""
+    return nav_parameter_entries(AttitudeNode.estimator)
 
 
 main = main_for(AttitudeNode)

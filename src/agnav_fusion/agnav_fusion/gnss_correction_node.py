@@ -7,6 +7,7 @@ stream's time are not corrected and are counted; diagnostics report the last `di
 import bisect
 import math
 from collections import deque
+from dataclasses import dataclass
 
 import numpy as np
 from agnav_common.diagnostics import OK, WARN, Diagnostics
@@ -14,6 +15,7 @@ from agnav_common.input_guard import EventWindow, StreamClock, covariance
 from agnav_common.frames import euler_from_quaternion, heading_from_yaw
 from agnav_common.geodesy import LocalTangentPlane
 from agnav_common.node_main import main_for
+from agnav_common.parameters import declare, leaves
 from agnav_common.qos import PUBLISHER_QOS, subscribe_input
 from agnav_common.stamps import to_sec
 from agnav_common.tf import TfBuffer
@@ -24,14 +26,26 @@ from sensor_msgs.msg import NavSatFix, NavSatStatus
 from agnav_fusion import tilt_correction
 
 
+@dataclass
+class GnssCorrectionSettings:
+    base_frame: str = "base_link"  # frame of the corrected fix (the vehicle reference point)
+    gnss_frame: str = "gnss_link"  # GNSS antenna frame (lever arm from TF base_frame -> gnss_frame)
+    max_attitude_age: float = 0.5  # s between a fix epoch and the nearest attitude; farther: not corrected
+    attitude_wait: float = 2.0     # s of node time a fix waits for the attitude of its epoch
+    diagnostic_window: float = 10.0  # s of node time the /diagnostics counts describe
+
+
+def parameter_entries():
+    """[(name, default, description)] of every parameter (tools/gen_params.py writes the params file from it)."""
+    return leaves(GnssCorrectionSettings())
+
+
 class GnssCorrectionNode(Node):
     def __init__(self, **kwargs):
         super().__init__("gnss_correction_node", **kwargs)
-        p = lambda n, d: self.declare_parameter(n, d).value  # noqa: E731
-        self.base_frame = p("base_frame", "base_link")
-        self.gnss_frame = p("gnss_frame", "gnss_link")
-        self.max_attitude_age = p("max_attitude_age", 0.5)  # s between fix epoch and nearest attitude
-        self.attitude_wait = p("attitude_wait", 2.0)  # s of node time a fix waits for the attitude of its epoch
+        s = declare(self, GnssCorrectionSettings())
+        self.base_frame, self.gnss_frame = s.base_frame, s.gnss_frame
+        self.max_attitude_age, self.attitude_wait = s.max_attitude_age, s.attitude_wait
         self.tf = TfBuffer(self)
         # (t, heading, pitch nose-up, roll, variances) thesis conventions; 30 s at 100 Hz: a fix delivered seconds
         # late (across processes DDS may resend a sample at its next heartbeat) still finds its epoch
@@ -40,7 +54,7 @@ class GnssCorrectionNode(Node):
         self.pending = []  # (t, fix, covariance, known, node arrival time) waiting for the attitude of their epoch
         self.create_timer(0.1, self.correct_pending)
         self.counts = {}
-        self.events = EventWindow(p("diagnostic_window", 10.0))  # s of node time the diagnostics describe
+        self.events = EventWindow(s.diagnostic_window)
         self.pub = self.create_publisher(NavSatFix, "gnss/fix_corrected", PUBLISHER_QOS)
         subscribe_input(self, NavSatFix, "gnss/fix", self.on_fix)
         subscribe_input(self, Odometry, "odometry/filtered", self.on_odom)

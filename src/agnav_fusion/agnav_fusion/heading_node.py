@@ -16,16 +16,13 @@ Magnetic disturbance (heading_gate), decided when a GDS sample arrives (with the
 does not wait for the ALE-delayed tilt): its intensity or inclination is off the WMM value, or its heading
 disagrees with the integrated gyro (innovation test). A flagged sample is not fused; the heading follows the gyro
 alone with a growing variance (gyro.*) and /diagnostics is WARN until the gate reopens.
-Parameters of the gate: disturbance.intensity_tolerance, disturbance.inclination_tolerance_deg,
-disturbance.innovation_k_sigma (4), disturbance.reference_window (10 s), disturbance.recover_time (1 s),
-disturbance.offset_sigma_floor_deg; gyro.bias_sigma_deg_s (the bias the estimator does not remove: VWA/KF the
-whole bias, LSM its residual), gyro.arw_deg_sqrt_s, gyro.bias_walk_deg_s_sqrt_s; gds.systematic_sigma_deg (0.4,
-added to the GDS estimators' variance).
+Parameters: HeadingNodeSettings below (gate: disturbance.*, gyro.*), documented in config/heading_node.yaml.
 Input stamps: one agnav_common.input_guard.StreamClock per stream (a lone future stamp is rejected, never
 moves the stream's time).
 """
 import math
 from collections import deque
+from dataclasses import replace
 
 import numpy as np
 from agnav_common.diagnostics import ERROR, OK, WARN, Diagnostics
@@ -33,6 +30,7 @@ from agnav_common.frames import euler_from_quaternion, quaternion_from_euler, ya
 from agnav_common.geodesy import LocalTangentPlane
 from agnav_common.input_guard import EventWindow, StreamClock, StreamClockSettings, finite
 from agnav_common.node_main import main_for
+from agnav_common.parameters import declare, leaves
 from agnav_common.qos import PUBLISHER_QOS, subscribe_input
 from agnav_common.stamps import to_sec, to_stamp
 from agnav_common.tf import TfBuffer
@@ -46,61 +44,53 @@ from agnav_fusion.gds_heading import CircleCalibration, inclination, magnetic_he
 from agnav_fusion.geomagnetic_model import DisturbanceSettings, MagneticModel, disturbance
 from agnav_fusion.heading_estimators import EstimatorSettings, HeadingEstimator
 from agnav_fusion.heading_gate import GateSettings, GyroErrorSettings, MagneticGate
-from agnav_fusion.gds_gyro_kf import KfSettings
+from agnav_fusion.heading_node_settings import ALE_INTERNAL, HeadingNodeSettings
 from agnav_common.variance_weighted_average import VwaSettings
 
 UNKNOWN_VARIANCE = 99999.0
 MAX_GYRO_GAP = 0.5   # s; longer gaps restart the gyro integration step
 
 
+def parameter_entries():
+    """[(name, default, description)] of every parameter (tools/gen_params.py writes the params file from it)."""
+    return leaves(HeadingNodeSettings(), skip=ALE_INTERNAL)
+
+
 class HeadingNode(Node):
     def __init__(self, **kwargs):
         super().__init__("heading_node", **kwargs)
-        p = lambda name, default: self.declare_parameter(name, default).value  # noqa: E731
-        self.base_frame = p("base_frame", "base_link")
-        self.tilt_source = p("tilt_source", "imu_data")
+        s = declare(self, HeadingNodeSettings(), skip=ALE_INTERNAL)
+        self.base_frame = s.base_frame
+        self.tilt_source = s.tilt_source
         if self.tilt_source not in ("imu_data", "inclinometer", "none"):
             raise ValueError("tilt_source must be imu_data | inclinometer | none")
-        self.cal = CircleCalibration(np.array(p("mag.center", [0.0, 0.0]), float),
-                                     np.array(p("mag.soft_iron", [1.0, 0.0, 0.0, 1.0]), float).reshape(2, 2),
-                                     z_offset=p("mag.z_offset", 0.0))
-        ale = AleSettings(n_taps=p("ale.n_taps", 50), delay=p("ale.delay", 1), mu=p("ale.mu", AleSettings.mu))
-        self.ale = (AdaptiveLineEnhancer(ale), AdaptiveLineEnhancer(ale))
-        self.incl_rate = p("inclinometer_rate", 50.0)
+        self.cal = CircleCalibration(np.array(s.mag.center, float), np.array(s.mag.soft_iron, float).reshape(2, 2),
+                                     z_offset=s.mag.z_offset)
+        self.ale = (AdaptiveLineEnhancer(s.ale), AdaptiveLineEnhancer(s.ale))
+        self.incl_rate = s.inclinometer_rate
         default_delay = self.ale[0].delay_samples() / self.incl_rate if self.tilt_source == "inclinometer" else 0.0
-        gds_delay = p("gds_delay", -1.0)
-        self.tilt_delay = default_delay if gds_delay < 0 else gds_delay
-        self.site = list(p("declination_site", [0.0]))   # [lat, lon, alt] used before the first fix
-        fallback = p("wmm_fallback_year", 0.0)
-        self.wmm = MagneticModel(fallback_year=fallback or None)
-        self.dist = DisturbanceSettings(p("disturbance.intensity_tolerance", 0.10),
-                                        math.radians(p("disturbance.inclination_tolerance_deg", 5.0)))
-        deg = math.radians
-        gyro = GyroErrorSettings(deg(p("gyro.bias_sigma_deg_s", 0.05)), deg(p("gyro.arw_deg_sqrt_s", 0.05)),
-                                 deg(p("gyro.bias_walk_deg_s_sqrt_s", 0.001)))
-        gate = GateSettings()
-        self.gate = MagneticGate(GateSettings(
-            k_sigma=p("disturbance.innovation_k_sigma", gate.k_sigma),
-            reference_window=p("disturbance.reference_window", gate.reference_window),
-            recover_time=p("disturbance.recover_time", gate.recover_time),
-            offset_sigma_floor=deg(p("disturbance.offset_sigma_floor_deg", math.degrees(gate.offset_sigma_floor))),
-            gyro=gyro))
-        kf, vwa = KfSettings(), VwaSettings()
-        self.settings = EstimatorSettings(
-            estimator=p("estimator", "gds_kf"),
-            kf=KfSettings(drift_noise=p("kf.drift_noise", 1e-7), retarget_limit=kf.retarget_limit),
-            vwa=VwaSettings(p("vwa.window", vwa.window), p("vwa.interval", vwa.interval)),
-            lsm_window_s=p("lsm.window", 3.5),
-            lsm_vwa=VwaSettings(p("lsm.vwa_window", 15.0), p("lsm.vwa_interval", 5.0)),
-            gds_delay_s=self.tilt_delay, imu_rate_hz=p("imu_rate", 50.0),
-            nominal_speed=p("nominal_speed", 0.5),
-            gds_systematic_sigma=deg(p("gds.systematic_sigma_deg", 0.4)), gyro=gyro)
+        self.tilt_delay = default_delay if s.gds_delay < 0 else s.gds_delay
+        self.site = list(s.declination_site)   # [lat, lon, alt] used before the first fix
+        self.wmm = MagneticModel(fallback_year=s.wmm_fallback_year or None)
+        d, deg = s.disturbance, math.radians
+        self.dist = DisturbanceSettings(d.intensity_tolerance, deg(d.inclination_tolerance_deg))
+        gyro = GyroErrorSettings(deg(s.gyro.bias_sigma_deg_s), deg(s.gyro.arw_deg_sqrt_s),
+                                 deg(s.gyro.bias_walk_deg_s_sqrt_s))
+        self.gate = MagneticGate(GateSettings(k_sigma=d.innovation_k_sigma, reference_window=d.reference_window,
+                                              recover_time=d.recover_time,
+                                              offset_sigma_floor=deg(d.offset_sigma_floor_deg), gyro=gyro))
+        est = EstimatorSettings()
+        self.settings = replace(
+            est, estimator=s.estimator, kf=replace(est.kf, drift_noise=s.kf.drift_noise),
+            vwa=VwaSettings(s.vwa.window, s.vwa.interval), lsm_window_s=s.lsm.window,
+            lsm_vwa=VwaSettings(s.lsm.vwa_window, s.lsm.vwa_interval), gds_delay_s=self.tilt_delay,
+            imu_rate_hz=s.imu_rate, nominal_speed=s.nominal_speed,
+            gds_systematic_sigma=deg(s.gds.systematic_sigma_deg), gyro=gyro)
         self.estimator = HeadingEstimator(self.settings)
-        self.stale_timeout = p("stale_timeout", 1.0)
-
-        clock = StreamClockSettings(max_jump=p("stamp_max_jump", 5.0))
+        self.stale_timeout = s.stale_timeout
+        clock = StreamClockSettings(max_jump=s.stamp_max_jump)
         self.clocks = {k: StreamClock(clock) for k in ("gyro", "mag", "tilt", "fix")}
-        self.events = EventWindow(p("diagnostics.window", 10.0))   # rejections and flagged GDS samples
+        self.events = EventWindow(s.diagnostics.window)   # rejections and flagged GDS samples
         self.last_seen = {}
         self.tilt = deque(maxlen=500)            # (epoch, roll_thesis, pitch_thesis, var_roll, var_pitch)
         self.pending_mag = deque(maxlen=200)     # (t, b_thesis) waiting for tilt at their epoch
