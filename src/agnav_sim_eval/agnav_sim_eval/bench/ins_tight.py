@@ -97,7 +97,8 @@ def report(res):
         f"| fixed baseline error, worst fixed epoch | {res['static_fixed_baseline_err_cm']} cm "
         f"(median {res['static_fixed_err_median_cm']} cm) | {res['rtklib_fixed_err_max_cm']} cm | ≤ 1 cm |",
         f"| float baseline error, static filter after {res['epochs']} epochs | "
-        f"{res['static_float_baseline_err_cm']} cm (E/N/U {res['static_float_baseline_err_enu_cm']}) | – | ≤ 5 cm |",
+        f"{res['static_float_baseline_err_cm']} cm (E/N/U {res['static_float_baseline_err_enu_cm']}) "
+        "| – | ≤ 5 cm |",
         f"| float baseline error, static filter, worst after 60 s | {res['static_float_err_after_60s_cm']} cm "
         "| – | |",
         "| float baseline error, kinematic filter: median / last epoch | "
