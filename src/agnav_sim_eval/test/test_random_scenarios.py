@@ -10,7 +10,9 @@ from agnav_sim_eval.sim import SCENARIOS, TractorSimulator, simulate, stats
 from agnav_sim_eval.sim.random_scenarios import RANGES, draw
 from agnav_sim_eval.sim.route import DriverParams, straight
 from agnav_sim_eval.sim.sensors.accelerometer import AccelParams
+from agnav_sim_eval.sim.sensors.fluxgate import Fluxgate, FluxgateParams
 from agnav_sim_eval.sim.sensors.gnss import FIX_RTK_FLOAT
+from agnav_sim_eval.sim.sensors.magnetic_field import DisturbanceParams, MagneticEnvironment
 from agnav_sim_eval.sim.sensors.wheel import WheelParams
 from agnav_sim_eval.sim.terrain import TerrainParams
 
@@ -128,3 +130,15 @@ def test_mount_misalignment_is_hidden_from_tf_static():
         v = rotation_matrix(*rpy).T @ g_body
         return math.degrees(math.acos(np.dot(f, v) / np.linalg.norm(f) / np.linalg.norm(v)))
     assert angle_deg(nominal) == pytest.approx(0.5, abs=0.05) and angle_deg(np.add(nominal, err)) < 0.05
+
+
+def test_magnetometer_soft_iron_and_passing_disturbance():
+    env = MagneticEnvironment(SCENARIOS["mems_field"].datum, DisturbanceParams(passing=((10.0, 4.0, 200.0),)),
+                              np.random.default_rng(1))
+    quiet, peak = env.field(3.0, 4.0, 7.9), env.field(3.0, 4.0, 10.0)
+    assert np.array_equal(quiet, env.field(3.0, 4.0)) and np.array_equal(env.field(3.0, 4.0, 12.1), quiet)
+    assert np.linalg.norm(peak - quiet) == pytest.approx(200e-7, rel=1e-9)  # 200 mG at the centre
+    bare = Fluxgate(FluxgateParams(), np.random.default_rng(2))
+    steel = Fluxgate(FluxgateParams(soft_iron=0.1), np.random.default_rng(2))
+    distortion = steel.matrix @ np.linalg.inv(bare.matrix) - np.eye(3)  # same draws, then the soft iron
+    assert np.allclose(distortion, distortion.T) and 0.01 < np.abs(distortion).max() <= 0.1
