@@ -54,6 +54,7 @@ class BagPlayerNode(Node):
         self.publishers_ = {}
         self.skipped = {}
         self.withheld = []  # latched bag topics the graph publishes itself
+        self._matched = set()  # topics that have had a subscriber
         self.published = 0
         self.received = 0
         self.retries = 0
@@ -93,10 +94,24 @@ class BagPlayerNode(Node):
         self.received += 1
 
     def _diagnose(self):
-        level = WARN if self.skipped else OK
-        return level, "finished" if self.finished else "playing", {
+        lost = self._subscribers_lost()
+        level = WARN if self.skipped or lost else OK
+        message = f"subscribers lost: {','.join(lost)}" if lost else "finished" if self.finished else "playing"
+        return level, message, {
             "published": self.published, "retries": self.retries, "skipped_topics": ",".join(self.skipped) or "none",
-            "withheld_topics": ",".join(self.withheld) or "none"}
+            "withheld_topics": ",".join(self.withheld) or "none", "subscribers_lost": ",".join(lost) or "none"}
+
+    def _subscribers_lost(self):
+        """Topics whose every subscriber (but this node's probes) has gone since it was matched: the graph that
+        consumed the replay is gone (a node died, the link to another computer is down)."""
+        own = 1 if self.rate == 0.0 and not self.external else 0
+        lost = []
+        for topic, pub in self.publishers_.items():
+            if pub.get_subscription_count() > own:
+                self._matched.add(topic)
+            elif topic in self._matched:
+                lost.append(topic)
+        return lost
 
     def _check_sole_publisher(self):
         """A node that publishes a replayed topic would mix its output into the recording's input (and into the
@@ -111,8 +126,8 @@ class BagPlayerNode(Node):
                                    "remap the bag topic (player parameter remap, config bag_remap), or leave it "
                                    "out (exclude, agnav run --exclude)")
             self.withheld.append(topic)
-            self.destroy_publisher(self.publishers_.pop(topic))
             self.get_logger().info(f"{pub.topic_name} is published by the graph: the bag's {topic} is not replayed")
+            self.destroy_publisher(self.publishers_.pop(topic))
 
     def _restart(self):
         self._iter = iter(self.source)
