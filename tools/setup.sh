@@ -36,12 +36,13 @@ if [ ! -x "$VENV/bin/python" ]; then
   python3.11 -m venv "$VENV" 2>/dev/null || python3 -m venv "$VENV"
   rm -f "$STAMPS"/*
 fi
-if ! fresh requirements requirements.txt; then
+if ! fresh requirements requirements.txt requirements-nodeps.txt; then
   echo "[setup] installing pinned requirements"
   pip_q install -r requirements.txt
+  pip_q install --no-deps -r requirements-nodeps.txt
   ros_env_fix_wheel_paths
   rm -f "$STAMPS"/iface-* "$STAMPS"/pkg-*
-  stamp requirements requirements.txt
+  stamp requirements requirements.txt requirements-nodeps.txt
 fi
 
 # 3. Interface packages built with rosidl straight into the venv prefix.

@@ -107,7 +107,8 @@ def test_readme_rosdep_command_skips_exactly_the_keys_rosdistro_lacks():
     skipped = readme.split('--skip-keys "')[1].split('"')[0].split()
     assert sorted(skipped) == sorted(IMPORT_KEYS[m] for m in NO_UPSTREAM_KEY)
     pip_line = next(line for line in readme.splitlines() if line.startswith("pip install pygeomag"))
-    pins = dict(line.split("==") for line in (SRC.parent / "requirements.txt").read_text().split() if "==" in line)
+    pins = dict(line.split("==") for name in ("requirements.txt", "requirements-nodeps.txt")
+                for line in (SRC.parent / name).read_text().split() if "==" in line)
     assert sorted(pip_line.split("#")[0].split()[2:]) == sorted(f"{m}=={pins[m]}" for m in NO_UPSTREAM_KEY)
 
 
