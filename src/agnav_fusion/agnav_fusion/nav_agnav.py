@@ -1,6 +1,9 @@
 """agnav's estimator of the navigation sensor module: two attitude KFs (inclinometer lag + kinematic acceleration
-model, attitude_kf.py) and the navigation EKF (nav_ekf.py: position, heading, yaw-gyro bias, speed, acceleration),
-with standstill and wheel-speed updates, the chord heading start and receiver velocity fusion. Thesis conventions
+model, attitude_kf.py) and the navigation EKF (nav_ekf.py: position, heading, yaw-gyro bias, speed, acceleration or
+accelerometer bias, crab), with standstill and wheel-speed updates, the chord heading start and receiver velocity
+fusion. With an accelerometer, its along-track specific force (gravity removed with the estimated pitch, the IMU
+lever-arm acceleration removed) drives the speed between fixes. A velocity differenced from fixes is not fused once
+the heading is known: it repeats the fixes' own information, late by half its baseline. Thesis conventions
 inside (heading clockwise from north, pitch nose up); NavSensorModule converts at its boundary.
 """
 import math
@@ -8,7 +11,7 @@ import math
 import numpy as np
 
 from agnav_fusion.attitude_kf import AttitudeKF
-from agnav_fusion.nav_ekf import IA, IB, IPHI, IV, NavEKF
+from agnav_fusion.nav_ekf import IA, IB, IC, IPHI, IV, NavEKF
 from agnav_fusion.nav_settings import GRAVITY, cross, euler_rates
 
 POSE_XY_YAW, EKF_XY_PHI = np.ix_([0, 1, 5], [0, 1, 5]), np.ix_([0, 1, IPHI], [0, 1, IPHI])
@@ -28,73 +31,99 @@ class AgnavEstimator:
         self.heading_known = False  # absolute heading initialised from the GNSS course
         self.chord_start = None    # (xy, relative heading) of the first moving fix before initialisation
         self.still = False         # the latest fix says the vehicle stands still
+        self.fix_speed = None      # (epoch, EKF speed after the fix): the fixes' own acceleration
+        self.fix_accel = 0.0       # m/s^2, speed change between fixes: compensates the inclinometer in accelerometer
+        #                            mode (the accelerometer's own along-track reading holds the pitch: circular)
 
     # ---- per IMU sample ---------------------------------------------------------------------------------
-    def step(self, t, dt, gyro, prev, roll_incl, pitch_incl):
-        """-> (rate_cw, roll, pitch, heading, raw heading, nav, still, wheel) of this sample."""
+    uses_specific_force = True
+
+    def step(self, t, dt, gyro, prev, roll_incl, pitch_incl, force=None):
+        """-> (rate_cw, roll, pitch, heading, raw heading, nav, still, wheel, along-track accel) of this sample;
+        force: specific force (base_link FLU m/s^2) or None."""
         s = self.m.settings
         roll0, pitch0 = (prev.roll, prev.pitch) if prev else (0.0, 0.0)
         droll, dpitch, dyaw = euler_rates(gyro, roll0, -pitch0)
         rate_cw = -dyaw
-        acc = self._kinematic_acceleration(gyro, prev, dt) if s.accel_compensation else np.zeros(3)
+        lever_acc = self._lever_acceleration(gyro, prev, dt)
+        acc = self._kinematic_acceleration(gyro, lever_acc) if s.accel_compensation else np.zeros(3)
         # a pendulum reads roll + a_y/g and (REP-103) pitch - a_x/g, i.e. thesis nose-up pitch + a_x/g
         roll = self.roll_filter.update(droll, roll_incl, dt, acc[1] / GRAVITY)
         pitch = self.pitch_filter.update(-dpitch, pitch_incl, dt, acc[0] / GRAVITY)
         self.raw_heading += rate_cw * dt
         wheel = self.wheel[1:] if self.wheel and 0 <= t - self.wheel[0] <= s.wheel_timeout else None
         self.wheel = None if wheel else self.wheel
+        along = None
+        if force is not None and roll is not None and pitch is not None:  # pitch: thesis nose up
+            along = float(np.clip(force[0] - GRAVITY * math.sin(pitch) - lever_acc[0], -s.max_accel, s.max_accel))
+        self.ekf.set_accel_mode(along is not None)
         if self.ekf.x is not None:
-            self.propagate(rate_cw, dt, self.still, wheel)
+            self.propagate(rate_cw, dt, self.still, wheel, along, roll or 0.0)
             heading, nav = self.ekf.x[IPHI], (self.ekf.x.copy(), self.ekf.P.copy())
         else:
             heading, nav = self.raw_heading, None
-        return rate_cw, roll, pitch, heading, self.raw_heading, nav, self.still, wheel
+        return rate_cw, roll, pitch, heading, self.raw_heading, nav, self.still, wheel, along
 
-    def propagate(self, rate_cw, dt, still, wheel=None):
-        """EKF prediction with the yaw rate; standing still, the gyro reading is its bias (zero-rate update);
-        a wheel speed (speed, variance) measures V. An IMU gap is bridged in steps of max_dt with the yaw rate and
-        acceleration it may have hidden added as noise."""
+    def propagate(self, rate_cw, dt, still, wheel=None, along=None, roll=0.0):
+        """EKF prediction with the yaw rate (and the along-track acceleration `along`, roll for the crab model);
+        standing still, the gyro reading is its bias (zero-rate update); a wheel speed (speed, variance) measures V.
+        An IMU gap is bridged in steps of max_dt with the yaw rate and acceleration it may have hidden added as
+        noise."""
         s, ekf = self.m.settings, self.ekf
         if dt > s.max_dt:
             n = math.ceil(dt / s.max_dt)
             for _ in range(n):
                 ekf.P[IPHI, IPHI] += (s.gap_rate_sigma * dt) ** 2 / n
                 ekf.P[IV, IV] += (s.gap_accel_sigma * dt) ** 2 / n
-                ekf.predict(rate_cw, dt / n)
+                ekf.predict(rate_cw, dt / n, along, roll)
         else:
-            ekf.predict(rate_cw, dt)
+            ekf.predict(rate_cw, dt, along, roll)
+
         if still:
             y, S, H, R = ekf.zero_rate_innovation(rate_cw, s.still_rate_sigma ** 2)
             ekf.update(y, S, H, R)
         if wheel is not None:
             self._fuse(ekf.speed_innovation(*wheel), counter="wheel_gated")
 
-    def _kinematic_acceleration(self, gyro, prev, dt):
-        """Body (FLU) acceleration of the inclinometer: forward A, centripetal V*wz, and the lever-arm terms
-        alpha x r + w x (w x r) (alpha from gyro differences; the inclinometer lag filters its noise)."""
-        speed, accel = (self.ekf.x[IV], self.ekf.x[IA]) if self.ekf.x is not None else (0.0, 0.0)
+    def _lever_acceleration(self, gyro, prev, dt):
+        """Body (FLU) acceleration of the attitude package relative to base_link: alpha x r + w x (w x r), alpha
+        from gyro differences (its noise telescopes in the speed integral; the inclinometer lag filters it). The
+        IMU sits in the package (incl_lever_flu)."""
         r = self.m.settings.incl_lever_flu
         alpha = (gyro - prev.body_rates) / dt if prev is not None and dt > 0 else np.zeros(3)
-        return np.array([accel, speed * gyro[2], 0.0]) + cross(alpha, r) + cross(gyro, cross(gyro, r))
+        return cross(alpha, r) + cross(gyro, cross(gyro, r))
+
+    def _kinematic_acceleration(self, gyro, lever_acc):
+        """Body (FLU) acceleration of the inclinometer: forward (accelerometer or A state), centripetal V*wz,
+        and the lever-arm terms."""
+        ekf = self.ekf
+        speed = ekf.x[IV] if ekf.x is not None else 0.0
+        if ekf.x is None:
+            accel = 0.0
+        elif ekf.accel_mode:  # the fixes' speed change, smoothed: pitch-independent
+            accel = self.fix_accel
+        else:
+            accel = ekf.x[IA]
+        return np.array([accel, speed * gyro[2], 0.0]) + lever_acc
 
     # ---- GNSS fix at its epoch ------------------------------------------------------------------------
     def white_fix_covariance(self, cov2):
         """The receiver's slow error becomes the EKF's bias states; the rest is white."""
         return self.ekf.split_fix_covariance(cov2)[0]
 
-    def fix(self, k, t, xy, R, v_ref, vel, vel_var, speed):
-        """Fuse a tilt-corrected fix (and its receiver velocity) at history sample k; True when the position was
-        accepted."""
+    def fix(self, k, t, xy, R, v_ref, vel, vel_var, speed, differenced=False):
+        """Fuse a tilt-corrected fix (and its receiver velocity; `differenced`: a velocity from fix differences) at
+        history sample k; True when the position was accepted."""
         m, s = self.m, self.m.settings
         if speed is None and m.last_fix is not None:  # V from successive tilt-corrected fixes
             speed = float(np.hypot(*(xy - m.last_fix[1][:2]))) / max(t - m.last_fix[0], 1e-3)
+        doppler = not differenced and self._doppler(vel, vel_var)
         # still: slower than stationary_speed, or for a receiver velocity than twice its noise (its norm's bias)
-        still_below = max(s.stationary_speed, 2.0 * s.velocity_sigma) if self._doppler(vel, vel_var) \
-            else s.stationary_speed
+        still_below = max(s.stationary_speed, 2.0 * s.velocity_sigma) if doppler else s.stationary_speed
         was_still, self.still = self.still, speed is not None and speed < still_below
-        return self._fuse_fix(k, t, xy, R, v_ref, vel_var, speed, was_still and not self.still)
+        return self._fuse_fix(k, t, xy, R, v_ref, vel_var, speed, was_still and not self.still, doppler, differenced)
 
-    def _fuse_fix(self, k, t, xy, R, v_ref, vel_var, speed, started):
+    def _fuse_fix(self, k, t, xy, R, v_ref, vel_var, speed, started, doppler, differenced):
         s, hist, ekf = self.m.settings, self.m.history, self.ekf
         snap = hist[k]
         first, verdict = ekf.x is None, True
@@ -108,11 +137,10 @@ class AgnavEstimator:
         if first:
             pass
         elif not self.heading_known:
-            self._fix_before_heading(snap, xy, R, v_ref, vel_var, speed)
+            self._fix_before_heading(snap, xy, R, v_ref, vel_var, speed, doppler)
         else:
             y, S, d2, H = ekf.position_innovation(xy, R)
             verdict = self.m.gate(t, d2)
-            doppler = self._doppler(v_ref, vel_var)
             if verdict is False and not doppler:  # a refused fix's own difference velocity is no better
                 ekf.x, ekf.P = hist[-1].nav[0].copy(), hist[-1].nav[1].copy()
                 return False
@@ -122,39 +150,51 @@ class AgnavEstimator:
                 ekf.update(y, S, H, R)
             if self.still and doppler:  # standing: zero speed (noise has no direction)
                 self._fuse(ekf.standstill_innovation(s.standstill_sigma ** 2), gated=False)
-            elif s.use_gnss_velocity and v_ref is not None:  # a receiver velocity even when its fix is refused
-                Rv = vel_var * np.eye(2)
+            elif s.use_gnss_velocity and v_ref is not None and not differenced:  # even when its fix is refused
+                Rv = (vel_var + self.m.lever_velocity_variance()) * np.eye(2)
                 y, S, d2, H = ekf.velocity_innovation(v_ref, Rv)
                 if d2 <= s.gate_chi2:
                     ekf.update(y, S, H, Rv)
                 else:
                     self.m.guard.count("velocity_gated")
         snap.nav, snap.heading = (ekf.x.copy(), ekf.P.copy()), ekf.x[IPHI]
+        if self.fix_speed is not None and 0 < t - self.fix_speed[0] <= 3.0:
+            a = 0.0 if self.still else (ekf.x[IV] - self.fix_speed[1]) / (t - self.fix_speed[0])
+            self.fix_accel += s.fix_accel_gain * (a - self.fix_accel)
+        self.fix_speed = (t, ekf.x[IV])
         for j in range(k + 1, len(hist)):  # replay the IMU samples received since the epoch
-            self.propagate(hist[j].rate_cw, hist[j].dt, hist[j].still, hist[j].wheel)
+            self.propagate(hist[j].rate_cw, hist[j].dt, hist[j].still, hist[j].wheel, hist[j].accel, hist[j].roll)
             hist[j].nav, hist[j].heading = (ekf.x.copy(), ekf.P.copy()), ekf.x[IPHI]
         return verdict is not False
 
-    def _fix_before_heading(self, snap, xy, R, v_ref, vel_var, speed):
-        """No heading yet: decoupled heading, speed fused, heading from the chord of moving fixes or the course."""
+    def _fix_before_heading(self, snap, xy, R, v_ref, vel_var, speed, doppler):
+        """No heading yet: decoupled heading and crab, speed fused, heading from the chord of moving fixes or the
+        course (the chord measures the course: the heading is it less a crab of crab_sigma)."""
         s, ekf = self.m.settings, self.ekf
-        for i, var in ((IPHI, math.pi ** 2), (IB, ekf.P[IB, IB])):
+        crab_var = s.ekf.crab_sigma ** 2
+        for i, var in ((IPHI, math.pi ** 2), (IB, ekf.P[IB, IB]), (IC, crab_var)):
             ekf.P[i, :] = ekf.P[:, i] = 0.0
             ekf.P[i, i] = var
-        if self.still and self._doppler(v_ref, vel_var):
+        if self.still and doppler:
             self._fuse(ekf.standstill_innovation(s.standstill_sigma ** 2), gated=False)
         elif v_ref is not None and speed > 3.0 * math.sqrt(vel_var):  # (a slower norm is biased by the noise)
             self._fuse(ekf.speed_innovation(speed, vel_var))  # needs no heading: carries the start of motion
-        chord = self._chord_course(xy, snap.raw_heading, speed or 0.0)
-        if chord is not None:  # absolute heading from the chord between moving fixes
-            ekf.x[IPHI] = chord
-            ekf.P[IPHI, IPHI] = np.trace(R) / s.heading_init_distance ** 2
+        chord = self._chord_course(xy, snap.raw_heading, speed or 0.0, R)
+        if chord is not None:  # absolute course from the chord between moving fixes
+            course, var = chord
+            self._set_course(course, var)
             self.heading_known = True
         elif v_ref is not None and speed >= s.heading_init_speed:  # provisional: the course over ground
-            ekf.x[IPHI] = math.atan2(*v_ref)
-            ekf.P[IPHI, IPHI] = s.ekf.init_heading_sigma ** 2
+            self._set_course(math.atan2(*v_ref), s.ekf.init_heading_sigma ** 2)
         y, S, d2, H = ekf.position_innovation(xy, R)
         ekf.update(y, S, H, R)
+
+    def _set_course(self, course, var):
+        """Heading = course - crab: the crab's variance (and correlation) is added to the course's."""
+        ekf = self.ekf
+        ekf.x[IPHI] = math.remainder(course - ekf.x[IC], 2 * math.pi)
+        ekf.P[IPHI, IPHI] = var + ekf.P[IC, IC]
+        ekf.P[IPHI, IC] = ekf.P[IC, IPHI] = -ekf.P[IC, IC]
 
     def _doppler(self, vel, vel_var):
         """True for a receiver velocity (variance at the velocity_sigma floor), not one from fix differences:
@@ -169,23 +209,32 @@ class AgnavEstimator:
         else:
             self.m.guard.count(counter)
 
-    def _chord_course(self, xy, rel_heading, speed):
-        """Heading (rad, cw from north) at this fix from the chord to the first moving fix once it is
-        heading_init_distance long (the chord's direction is the mean heading: half the gyro turn is added), or None.
+    def _chord_course(self, xy, rel_heading, speed, R):
+        """(course, variance) (rad, cw from north) at this fix from the chord to the first moving fix once it is
+        heading_init_distance long (the chord's direction is the mean course: half the gyro turn is added), or None;
+        a chord that turns more than chord_max_turn restarts. The variance counts both fixes' white noise, their
+        tilt-correction error (the heading used to place the lever arm is still unknown) and the turn's curvature.
         speed: from /gnss/vel when present, else from successive fixes."""
         s = self.m.settings
         if speed < s.heading_init_speed:
             self.chord_start = None
             return None
-        if self.chord_start is None:
-            self.chord_start = (xy, rel_heading)
+        if self.chord_start is None or abs(rel_heading - self.chord_start[1]) > s.chord_max_turn:
+            self.chord_start = (xy, rel_heading, R)
             return None
         d = xy - self.chord_start[0]
-        if np.hypot(*d) < s.heading_init_distance:
+        length = np.hypot(*d)
+        if length < s.heading_init_distance:
             return None
-        return math.atan2(d[0], d[1]) + 0.5 * math.remainder(rel_heading - self.chord_start[1], 2 * math.pi)
+        turn = math.remainder(rel_heading - self.chord_start[1], 2 * math.pi)
+        var = (np.trace(R) + np.trace(self.chord_start[2])) / 2 / length ** 2 + (turn / 4) ** 2
+        return math.atan2(d[0], d[1]) + 0.5 * turn, var
 
     # ---- outputs --------------------------------------------------------------------------------------
+    def crab(self):
+        """(crab angle rad, clockwise: course = heading + crab, variance), or None before the EKF starts."""
+        return None if self.ekf.x is None else (float(self.ekf.x[IC]), float(self.ekf.P[IC, IC]))
+
     def heading_variance(self):
         return float(self.ekf.P[IPHI, IPHI]) if self.ekf.x is not None else math.inf
 
@@ -203,7 +252,8 @@ class AgnavEstimator:
             pose_cov[POSE_XY_YAW] = P[EKF_XY_PHI] * YAW_SIGN
             twist_cov[0, 0] = P[IV, IV]
             twist_cov[5, 5] = P[IB, IB] + m.settings.ekf.rate_noise ** 2
-            return float(x[IV]), self.heading_known, True
+            valid = self.heading_known and P[IPHI, IPHI] <= m.settings.heading_valid_sigma ** 2
+            return float(x[IV]), valid, True
         if m.last_fix is not None:
             position[:2] = m.last_fix[1][:2]
             pose_cov[:2, :2] = m.last_fix[2][:2, :2]

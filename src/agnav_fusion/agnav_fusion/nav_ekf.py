@@ -2,9 +2,14 @@
 (agnav extension of SPEC §6.3: replaces Kise/drift LSM + dead reckoning with one filter giving covariances).
 
 Thesis conventions: state x = [X east, Y north, phi heading cw from north, b yaw-gyro bias, V speed, A accel,
-BX, BY receiver bias]; X' = V sin phi, Y' = V cos phi (as 5.12-5.13), phi' = r - b (r clockwise gyro rate), V' = A,
-A' = -A/tau + w; a fix measures (X + BX, Y + BY) + white noise, the bias being the receiver's slow (Gauss-Markov)
-error: the track's shape then carries the heading to the precision of the white part, as in the Kise LSM (4.1-4.11).
+BX, BY receiver bias, beta crab angle]; the course over ground is phi + beta (non-holonomic constraint with side
+slip: the vehicle moves along its heading turned by beta), X' = V sin(phi + beta), Y' = V cos(phi + beta) (as
+5.12-5.13), phi' = r - b (r clockwise gyro rate); beta is Gauss-Markov about crab_roll_gain * sin(roll) (a tractor
+slides downhill on a cross slope). Speed: without an accelerometer V' = A + w_V, A' = -A/tau + w (a tractor keeps
+its speed); with one V' = a - A + w_V, A being the along-track accelerometer bias (random walk; it also takes the
+pitch error of the gravity compensation). A fix measures (X + BX, Y + BY) + white noise, the bias being the
+receiver's slow (Gauss-Markov) error: the track's shape then carries the heading to the precision of the white part,
+as in the Kise LSM (4.1-4.11).
 """
 import math
 from dataclasses import dataclass
@@ -13,16 +18,24 @@ import numpy as np
 
 from agnav_fusion import kalman
 
-IX, IY, IPHI, IB, IV, IA, IBX, IBY = range(8)
-DIAG8 = np.diag_indices(8)
+IX, IY, IPHI, IB, IV, IA, IBX, IBY, IC = range(9)
+N = 9
+DIAGN = np.diag_indices(N)
 
 
 @dataclass
 class NavEKFSettings:
     rate_noise: float = 0.003      # rad/s/sqrt(Hz) heading random walk from gyro noise
     bias_walk: float = 1.0e-4      # rad/s/sqrt(s) yaw-gyro bias random walk
-    jerk_noise: float = 0.3        # m/s^3/sqrt(Hz) longitudinal jerk
+    jerk_noise: float = 0.1        # m/s^3/sqrt(Hz) longitudinal jerk (no accelerometer)
     accel_tau: float = 2.0         # s, longitudinal acceleration is Gauss-Markov (decays to 0 without fixes)
+    speed_walk: float = 0.02       # m/s/sqrt(s) speed random walk (throttle, load, wheel slip changes)
+    accel_noise: float = 0.1       # m/s^2/sqrt(Hz) along-track accelerometer: vibration and sway residuals
+    accel_bias_walk: float = 0.005  # m/s^2/sqrt(s) accelerometer bias + gravity-compensation (pitch) error walk
+    accel_bias_sigma: float = 0.1  # m/s^2, initial accelerometer bias (MEMS zero-g offset + pitch error)
+    crab_sigma: float = 0.026      # rad, crab (side-slip) angle spread about its roll model (1.5 deg)
+    crab_tau: float = 30.0         # s, crab correlation time (slope and soil change slowly)
+    crab_roll_gain: float = 0.0    # crab per sin(roll) (rad): expected downhill slide; 0: no model
     slip_noise: float = 0.005      # m/sqrt(s) unmodelled position motion (slip, sway)
     init_heading_sigma: float = 0.2  # rad, heading from a first course over ground (before the chord)
     init_bias_sigma: float = 0.005  # rad/s
@@ -41,6 +54,7 @@ class NavEKF:
         self.P = None
         self.log = None  # (F, x_pred, P_pred, x_filt, P_filt) per predict+updates, for kalman.smooth_log
         self.gnss_bias_var = 0.0  # m^2 per axis, the receiver's slow-error variance (split_fix_covariance)
+        self.accel_mode = False   # A is the accelerometer bias (set_accel_mode)
 
     def split_fix_covariance(self, cov):
         """(white 2x2 covariance, slow-bias variance per axis) of a fix's horizontal covariance; sets the bias
@@ -55,12 +69,27 @@ class NavEKF:
 
     def initialise(self, xy, xy_cov, heading, speed=0.0):
         s = self.settings
-        self.x = np.array([xy[0], xy[1], heading, 0.0, speed, 0.0, 0.0, 0.0])
-        self.P = np.zeros((8, 8))
+        self.x = np.array([xy[0], xy[1], heading, 0.0, speed, 0.0, 0.0, 0.0, 0.0])
+        self.P = np.zeros((N, N))
         self.P[:2, :2] = np.asarray(xy_cov) + self.gnss_bias_var * np.eye(2)
         self.P[IBX, IBX] = self.P[IBY, IBY] = self.gnss_bias_var
         self.P[IX, IBX] = self.P[IBX, IX] = self.P[IY, IBY] = self.P[IBY, IY] = -self.gnss_bias_var
-        self.P[IPHI:IBX, IPHI:IBX] = np.diag([s.init_heading_sigma, s.init_bias_sigma, s.init_speed_sigma, 0.5]) ** 2
+        a_sigma = s.accel_bias_sigma if self.accel_mode else 0.5
+        self.P[IPHI:IBX, IPHI:IBX] = np.diag([s.init_heading_sigma, s.init_bias_sigma, s.init_speed_sigma, a_sigma]) ** 2
+        self.P[IC, IC] = s.crab_sigma ** 2
+
+    def set_accel_mode(self, on):
+        """Switch A between the Gauss-Markov acceleration and the accelerometer bias (a new, uncorrelated start)."""
+        if on == self.accel_mode:
+            return
+        self.accel_mode = on
+        if self.x is not None:
+            self.x[IA] = 0.0
+            self.P[IA, :] = self.P[:, IA] = 0.0
+            self.P[IA, IA] = self.settings.accel_bias_sigma ** 2 if on else 0.5 ** 2
+
+    def course(self):
+        return self.x[IPHI] + self.x[IC]
 
     def reset_position(self, xy, xy_cov):
         """Re-initialise the position (a fix the gate kept refusing): the old position, and what it implied for the
@@ -72,33 +101,39 @@ class NavEKF:
 
     def transition(self, dt):
         """Jacobian F of one propagation step at the current state."""
-        phi, v = self.x[IPHI], self.x[IV]
-        F = np.eye(8)
-        F[IX, IPHI], F[IX, IV] = v * math.cos(phi) * dt, math.sin(phi) * dt
-        F[IY, IPHI], F[IY, IV] = -v * math.sin(phi) * dt, math.cos(phi) * dt
+        s, v, c = self.settings, self.x[IV], self.course()
+        F = np.eye(N)
+        F[IX, IPHI] = F[IX, IC] = v * math.cos(c) * dt
+        F[IY, IPHI] = F[IY, IC] = -v * math.sin(c) * dt
+        F[IX, IV], F[IY, IV] = math.sin(c) * dt, math.cos(c) * dt
         F[IPHI, IB] = -dt
-        F[IV, IA] = dt
-        F[IA, IA] = math.exp(-dt / self.settings.accel_tau)
-        tau = self.settings.gnss_bias_tau
-        F[IBX, IBX] = F[IBY, IBY] = math.exp(-dt / tau) if tau > 0 else 0.0
+        F[IV, IA] = -dt if self.accel_mode else dt
+        F[IA, IA] = 1.0 if self.accel_mode else math.exp(-dt / s.accel_tau)
+        F[IBX, IBX] = F[IBY, IBY] = math.exp(-dt / s.gnss_bias_tau) if s.gnss_bias_tau > 0 else 0.0
+        F[IC, IC] = math.exp(-dt / s.crab_tau)
         return F
 
-    def predict(self, rate, dt):
-        """Propagate with the clockwise yaw rate r (rad/s) over dt (s)."""
+    def predict(self, rate, dt, accel=None, roll=0.0):
+        """Propagate with the clockwise yaw rate r (rad/s) over dt (s); accel: along-track acceleration (m/s^2,
+        gravity-compensated) in accelerometer mode; roll (rad, right side down) drives the crab model."""
         s = self.settings
         F = self.transition(dt)
-        phi, v = self.x[IPHI], self.x[IV]
+        v, c = self.x[IV], self.course()
         x = self.x.copy()
-        x[IX] += v * math.sin(phi) * dt
-        x[IY] += v * math.cos(phi) * dt
-        x[IPHI] = math.remainder(phi + (rate - x[IB]) * dt, 2 * math.pi)
-        x[IV] += x[IA] * dt
+        x[IX] += v * math.sin(c) * dt
+        x[IY] += v * math.cos(c) * dt
+        x[IPHI] = math.remainder(x[IPHI] + (rate - x[IB]) * dt, 2 * math.pi)
+        x[IV] += ((accel or 0.0) - x[IA]) * dt if self.accel_mode else x[IA] * dt
         x[IA] *= F[IA, IA]
-        x[IBX:] *= F[IBX, IBX]
+        x[IBX:IC] *= F[IBX, IBX]
+        crab_mean = s.crab_roll_gain * math.sin(roll)
+        x[IC] = crab_mean + F[IC, IC] * (x[IC] - crab_mean)
         q_bias = self.gnss_bias_var * (1.0 - F[IBX, IBX] ** 2)   # keeps the Gauss-Markov variance stationary
+        q_v = s.speed_walk ** 2 + (s.accel_noise ** 2 if self.accel_mode else 0.0)
+        q_a = s.accel_bias_walk ** 2 if self.accel_mode else s.jerk_noise ** 2
         P = F @ self.P @ F.T
-        P[DIAG8] += (s.slip_noise ** 2 * dt, s.slip_noise ** 2 * dt, s.rate_noise ** 2 * dt,
-                     s.bias_walk ** 2 * dt, 0.0, s.jerk_noise ** 2 * dt, q_bias, q_bias)
+        P[DIAGN] += (s.slip_noise ** 2 * dt, s.slip_noise ** 2 * dt, s.rate_noise ** 2 * dt, s.bias_walk ** 2 * dt,
+                     q_v * dt, q_a * dt, q_bias, q_bias, s.crab_sigma ** 2 * (1.0 - F[IC, IC] ** 2))
         self.P = P
         self.x = x
         if self.log is not None:
@@ -113,14 +148,14 @@ class NavEKF:
 
     def position_innovation(self, xy, R):
         """(y, S, d2, H) of a horizontal position fix (position + receiver bias; R its white covariance)."""
-        H = np.zeros((2, 8))
+        H = np.zeros((2, N))
         H[0, IX] = H[1, IY] = H[0, IBX] = H[1, IBY] = 1.0
         y, S, d2 = kalman.innovation(self.x, self.P, np.asarray(xy, dtype=float), H, R)
         return y, S, d2, H
 
     def zero_rate_innovation(self, rate, var):
         """(y, S, H, R) of a standstill: the clockwise gyro rate reads the bias b, with variance var (rad/s)^2."""
-        H = np.zeros((1, 8))
+        H = np.zeros((1, N))
         H[0, IB] = 1.0
         R = np.array([[var]])
         y, S, _ = kalman.innovation(self.x, self.P, np.array([rate]), H, R)
@@ -128,7 +163,7 @@ class NavEKF:
 
     def speed_innovation(self, speed, var):
         """(y, S, d2, H, R) of a ground-speed measurement (m/s) with variance var: no heading needed."""
-        H = np.zeros((1, 8))
+        H = np.zeros((1, N))
         H[0, IV] = 1.0
         R = np.array([[var]])
         y, S, d2 = kalman.innovation(self.x, self.P, np.array([speed]), H, R)
@@ -136,18 +171,21 @@ class NavEKF:
 
     def standstill_innovation(self, var):
         """(y, S, d2, H, R) of standing still: speed 0 (variance var) and acceleration 0 (var per s^2)."""
-        H = np.zeros((2, 8))
-        H[0, IV] = H[1, IA] = 1.0
+        H = np.zeros((2, N))
+        H[0, IV] = 1.0
+        H[1, IA] = 0.0 if self.accel_mode else 1.0
         R = var * np.eye(2)
         y, S, d2 = kalman.innovation(self.x, self.P, np.zeros(2), H, R)
         return y, S, d2, H, R
 
     def velocity_innovation(self, v_en, R):
-        """(y, S, d2, H) of a horizontal velocity (east, north) measurement of the reference point."""
-        phi, v = self.x[IPHI], self.x[IV]
-        h = np.array([v * math.sin(phi), v * math.cos(phi)])
-        H = np.zeros((2, 8))
-        H[0, IPHI], H[0, IV] = v * math.cos(phi), math.sin(phi)
-        H[1, IPHI], H[1, IV] = -v * math.sin(phi), math.cos(phi)
+        """(y, S, d2, H) of a horizontal velocity (east, north) measurement of the reference point: along the course
+        phi + beta."""
+        c, v = self.course(), self.x[IV]
+        h = np.array([v * math.sin(c), v * math.cos(c)])
+        H = np.zeros((2, N))
+        H[0, IPHI] = H[0, IC] = v * math.cos(c)
+        H[1, IPHI] = H[1, IC] = -v * math.sin(c)
+        H[0, IV], H[1, IV] = math.sin(c), math.cos(c)
         y, S, d2 = kalman.innovation(self.x, self.P, np.asarray(v_en, dtype=float), H, R, h=h)
         return y, S, d2, H

@@ -51,6 +51,7 @@ class NavSensorModule:
         self._last_accepted_t = -math.inf
         self._rejected_since = None  # epoch of the first of the fixes the gate refuses in a row
         self.last_fix = None         # latest accepted corrected fix (t, xyz, cov)
+        self._antenna_fixes = deque(maxlen=12)  # (t, antenna ENU) received: tells fix-differenced velocities
         self._state = None
 
     def set_mounts(self, lever_flu, incl_lever_flu=None):
@@ -84,14 +85,23 @@ class NavSensorModule:
             return False
         self.guard.count("gnss")
         self._fixes_due.arrived(t, self.history[-1].t if self.history else None)
+        antenna_enu = np.asarray(antenna_enu, float)
+        differenced = vel_enu is not None and self._differenced(t, antenna_enu, np.asarray(vel_enu, float))
+        self._antenna_fixes.append((t, antenna_enu))
         if vel_enu is not None:
             vel_var = self.guard.velocity_variance(vel_var, self.settings.velocity_sigma ** 2)
             if vel_var is None or not self.guard.accept("vel", t, vel_enu):
                 vel_enu = None
-        self._pending_gnss.append((t, np.asarray(antenna_enu, float), cov,
-                                   None if vel_enu is None else np.asarray(vel_enu, float), vel_var))
+        self._pending_gnss.append((t, antenna_enu, cov, None if vel_enu is None else np.asarray(vel_enu, float),
+                                   vel_var, differenced))
         self._drain_gnss()
         return True
+
+    def _differenced(self, t, antenna, vel):
+        """True when vel is the difference of this fix and an earlier one over their time (no /gnss/vel: the
+        front end's fix-difference velocity), not a receiver (Doppler) velocity."""
+        return any(t > t0 and np.allclose((antenna - p0) / (t - t0), vel, rtol=1e-9, atol=1e-9)
+                   for t0, p0 in self._antenna_fixes)
 
     def wheel_speed(self, t, speed, var=None):
         """Forward ground speed (m/s, negative reversing) of base_link from wheel odometry or a radar, with its
@@ -104,10 +114,15 @@ class NavSensorModule:
         self.estimator.wheel = (t, float(speed), var)
         return True
 
-    def imu(self, t, gyro_flu):
-        """Body (base_link FLU) gyro rates (rad/s) at epoch t; advances the module. Returns the new NavState."""
+    def imu(self, t, gyro_flu, specific_force=None):
+        """Body (base_link FLU) gyro rates (rad/s) at epoch t, and optionally the accelerometer's specific force
+        (base_link FLU m/s^2; zero or not finite: no accelerometer); advances the module. Returns the new NavState."""
         if not self.guard.accept("imu", t, gyro_flu):
             return None
+        if specific_force is not None:
+            specific_force = np.asarray(specific_force, dtype=float)
+            if not (np.all(np.isfinite(specific_force)) and specific_force.any()):
+                specific_force = None
         self.guard.count("imu")
         s = self.settings
         dt = t - self.history[-1].t if self.history else 0.0
@@ -121,7 +136,7 @@ class NavSensorModule:
             self._imu_period = dt if self._imu_period is None else self._imu_period + 0.01 * (dt - self._imu_period)
         if self._fixes_due.check(t):
             self.guard.count("gnss_overdue")
-        self._step(t, dt, np.asarray(gyro_flu, dtype=float))
+        self._step(t, dt, np.asarray(gyro_flu, dtype=float), specific_force)
         self._drain_gnss()
         self._state = self._output()
         return self._state
@@ -131,18 +146,19 @@ class NavSensorModule:
 
 
     # ---- per-sample processing -----------------------------------------------------------------------
-    def _step(self, t, dt, gyro):
+    def _step(self, t, dt, gyro, force=None):
         s = self.settings
         prev = self.history[-1] if self.history else None
         incl = self._incl if self._incl and t - self._incl[0] <= s.incl_timeout else None
         self._incl = None if incl else self._incl
         roll_incl = None if incl is None else incl[1]
         pitch_incl = None if incl is None else -incl[2]
-        rate_cw, roll, pitch, heading, raw, nav, still, wheel = self.estimator.step(t, dt, gyro, prev, roll_incl,
-                                                                                     pitch_incl)
+        force = (force,) if force is not None and getattr(self.estimator, "uses_specific_force", False) else ()
+        rate_cw, roll, pitch, heading, raw, nav, still, wheel, *along = self.estimator.step(
+            t, dt, gyro, prev, roll_incl, pitch_incl, *force)
         roll = 0.0 if roll is None else roll
         pitch = 0.0 if pitch is None else pitch
-        self.history.append(Sample(t, dt, rate_cw, gyro, roll, pitch, heading, raw, nav, still, wheel))
+        self.history.append(Sample(t, dt, rate_cw, gyro, roll, pitch, heading, raw, nav, still, wheel, *along))
         while self.history[0].t < t - s.history:
             self.history.popleft()
 
@@ -156,7 +172,7 @@ class NavSensorModule:
             self._process_fix(*fix)
 
     # ---- GNSS fix at its epoch ----------------------------------------------------------------------------
-    def _process_fix(self, t, antenna, cov, vel, vel_var):
+    def _process_fix(self, t, antenna, cov, vel, vel_var, differenced=False):
         hist = self.history
         if hist[0].t > t:  # the history moved past the epoch while the fix waited (an IMU gap)
             self.guard.count("gnss_too_old")
@@ -167,12 +183,13 @@ class NavSensorModule:
             self.guard.count("gnss_in_imu_gap")
             return
         corrected = tilt_correction.correct(antenna, self.lever, snap.heading, snap.pitch, snap.roll)
-        v_ref = None if vel is None else vel[:2] - self._lever_velocity(k)
+        # a differenced velocity is a mean over seconds: the antenna's sway velocity averages out of it
+        v_ref = None if vel is None else vel[:2] - (0.0 if differenced else self._lever_velocity(k))
         R = self.estimator.white_fix_covariance(cov[:2, :2]) + self._tilt_variance() * np.eye(2)
         speed = float(np.hypot(*v_ref)) if v_ref is not None else None
         fwd = np.array([math.sin(snap.heading), math.cos(snap.heading)])
         xy = corrected[:2] - (t - snap.t) * (speed or 0.0) * fwd   # align to the snapshot epoch
-        if self.estimator.fix(k, t, xy, R, v_ref, vel, vel_var, speed):
+        if self.estimator.fix(k, t, xy, R, v_ref, vel, vel_var, speed, *((differenced,) if differenced else ())):
             self._last_accepted_t = t
             self.last_fix = (t, corrected, cov)
 
@@ -214,6 +231,10 @@ class NavSensorModule:
         rates[1] *= self.estimator.pitch_filter.angle is not None
         return rates
 
+    def lever_velocity_variance(self):
+        """Per-axis variance (m/s)^2 of the antenna lever-arm velocity at a receiver's velocity epoch."""
+        return (self.settings.lever_rate_sigma * float(np.linalg.norm(self.lever))) ** 2
+
     def _lever_velocity(self, k):
         """ENU velocity of the antenna relative to base_link at history sample k: omega x lever, omega the corrected
         body rate averaged over lever_rate_window (a FOG's angle noise differentiated per sample would be m/s)."""
@@ -241,5 +262,6 @@ class NavSensorModule:
         rates = snap.body_rates + self._rate_corrections()
         rpy = np.array([snap.roll, -snap.pitch, math.remainder(math.pi / 2 - snap.heading, 2 * math.pi)])
         dead_reckoning = snap.t - self._last_accepted_t > s.gnss_timeout
+        crab = getattr(self.estimator, "crab", lambda: None)()
         return NavState(snap.t, position, rpy, pose_cov, speed, rates, twist_cov,
-                        heading_valid, position_valid, dead_reckoning)
+                        heading_valid, position_valid, dead_reckoning, *(crab or ()))

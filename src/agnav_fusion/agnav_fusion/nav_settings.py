@@ -40,12 +40,17 @@ class NavSensorModuleSettings:
     gnss_reset_time: float = 30.0             # s of fixes refused by the gate, then the position restarts from them
     heading_init_speed: float = 0.3           # m/s of GNSS speed before the absolute heading is initialised
     heading_init_distance: float = 3.0        # m of chord between moving fixes that initialises the heading
+    chord_max_turn: float = 0.35              # rad of gyro turn along that chord: more restarts it (agnav)
+    heading_valid_sigma: float = 0.05         # rad: the heading is published once known this well (agnav)
     stationary_speed: float = 0.05            # m/s: slower fixes mark the vehicle still (yaw rate zero: gyro bias)
     standstill_sigma: float = 0.005           # m/s (and m/s^2): speed and acceleration of a vehicle at rest
     wheel_speed_sigma: float = 0.05           # m/s, floor of a wheel/radar speed's noise (agnav; /wheel/odometry)
     wheel_slip_sigma: float = 0.03            # of the speed: slip and rolling-radius error of a wheel speed
     wheel_timeout: float = 0.5                # s, an older wheel speed is not fused
     lever_rate_window: float = 0.2            # s of body rates averaged for the antenna lever-arm velocity
+    lever_rate_sigma: float = 0.02            # rad/s, error of that rate at the receiver's velocity epoch (sway)
+    fix_accel_gain: float = 0.3               # smoothing of the fixes' speed change (inclinometer compensation)
+    max_accel: float = 3.0                    # m/s^2, along-track accelerometer reading clipped (bumps) (agnav)
     still_rate_sigma: float = 0.01            # rad/s per IMU sample of a still gyro (ENV-05F 0.25 deg/s, 10 Hz band)
     motion_bias_sigma: float = 0.003          # rad/s, yaw-gyro bias change once moving (SPEC §11.4 motion biases)
     history: float = 2.0                      # s of IMU history kept for GNSS latency
@@ -74,6 +79,8 @@ class NavState:
     heading_valid: bool
     position_valid: bool
     dead_reckoning: bool
+    crab: float = 0.0         # rad, side-slip: course over ground = yaw - crab (REP-103, + sliding right)
+    crab_var: float = math.inf  # rad^2 (inf: not estimated)
 
 
 @dataclass
@@ -89,6 +96,7 @@ class Sample:
     nav: tuple                # agnav: (x, P) of the EKF; thesis: (xy, cov) of dead reckoning
     still: bool = False       # agnav: vehicle stationary (zero-yaw-rate update of the gyro bias)
     wheel: tuple = None       # agnav: (speed m/s, variance) of a wheel speed fused at this epoch
+    accel: float = None       # agnav: along-track acceleration of base_link from the accelerometer (m/s^2)
 
 
 def euler_rates(body_rates, roll, pitch):
