@@ -19,7 +19,7 @@ from agnav_common.input_guard import StreamClockSettings
 
 from agnav_fusion.front_end import InputGuard, InputGuardSettings, Overdue
 from agnav_fusion.ins import GnssSample, InsEkf, InsEkfSettings
-from agnav_fusion.ins.frames import FLU_TO_FRD, Mounts, base_link_state
+from agnav_fusion.ins.frames import FLU_TO_FRD, FastPlane, Mounts, base_link_state
 from agnav_fusion.nav_settings import NavState
 
 FRD = np.diag(FLU_TO_FRD)   # FLU <-> FRD: flip y and z
@@ -42,17 +42,6 @@ class InsNavSettings:
         max_stamp_jump=1.0, min_fix_sigma=0.01, diagnostic_window=5.0))
 
 
-def positive_definite(cov):
-    """True for a symmetric positive-definite matrix (published covariances must be)."""
-    if not np.array_equal(cov, cov.T):
-        return False
-    try:
-        np.linalg.cholesky(cov)
-    except np.linalg.LinAlgError:
-        return False
-    return True
-
-
 class InsNavigation:
     """The navigation backend protocol (guard, counters, set_mounts, imu, inclinometer, gnss, wheel_speed, state)
     around InsEkf."""
@@ -71,7 +60,7 @@ class InsNavigation:
         self.imu_overdue = Overdue(s.imu_overdue_periods)
         self.ekf = None
         self.mounts = None
-        self.plane = None
+        self.plane = self.enu_plane = None
         self.filter_seen = {}       # EKF rejection counts already turned into guard events
         self._state = None
 
@@ -88,7 +77,7 @@ class InsNavigation:
 
     def set_plane(self, plane):
         """The map's LocalTangentPlane (fixes arrive in it; the INS integrates geodetic)."""
-        self.plane = plane
+        self.plane, self.enu_plane = plane, FastPlane(plane)
 
     def _imu_clock(self):
         return self.guard.clocks["imu"].last
@@ -168,8 +157,8 @@ class InsNavigation:
         if sol is None or self.plane is None:
             return None
         rate_var = self.settings.ekf.error.gyro_arw ** 2 / self.ekf.imu_period   # gyro white noise in its band
-        b = base_link_state(sol, self.mounts, self.plane, (rate_var,) * 3)
-        if not (b.finite() and positive_definite(b.pose_cov) and positive_definite(b.twist_cov)):
+        b = base_link_state(sol, self.mounts, self.enu_plane, (rate_var,) * 3)
+        if not (b.finite() and b.positive_definite()):   # published covariances must be
             self.guard.count("output_invalid")
             return None
         outage = self.ekf.gnss_age() > self.settings.gnss_timeout

@@ -11,7 +11,7 @@ from collections import deque
 import numpy as np
 from scipy.stats import chi2
 
-from . import earth, error_model as em, feedback
+from . import earth, error_model as em, feedback, quaternion
 from .lever_arm import antenna_to_imu_position
 from .measurements import ENU_TO_NED, GnssPosition, GnssVelocity, Snapshot, c_axes, ned_to_c
 from .mechanization import T, InsState, Mechanization, c_cbar_ned, roll_pitch_from_accel
@@ -137,17 +137,19 @@ class InsEkf:
         if self.mech is None:
             return None
         st = self.mech.state
-        roll, pitch, heading = st.euler()
-        rm, rn = earth.radii(st.lat)
-        a = c_axes(st.alpha) * (earth.mean_radius(st.lat) + st.h)
+        lat, alpha = st.lat, st.alpha
+        c_bc, cn = st.c_b_cbar(), c_cbar_ned(alpha)
+        roll, pitch, yaw_c = quaternion.euler(c_bc)
+        a = c_axes(alpha) * (earth.mean_radius(lat) + st.h)
         pos = np.zeros((3, 3))
         pos[:2, :2] = a @ self.p[:2, :2] @ a.T
         pos[2, 2] = self.p[em.H, em.H]
         pos += self._fix_drift_cov
-        m = ENU_TO_NED.T @ ned_to_c(st.alpha).T       # C -> ENU
+        m = ENU_TO_NED.T @ ned_to_c(alpha).T       # C -> ENU
         tilt = 0.5 * (self.p[em.TX, em.TX] + self.p[em.TY, em.TY])
-        return NavSolution(self.t, st.lat, st.lon, st.h, st.v_ned(), roll, pitch, heading, self.omega_b.copy(),
-                           st.c_b_ned(), pos, m @ self.p[V3_BLOCK] @ m.T,
+        return NavSolution(self.t, lat, st.lon, st.h, cn @ (T @ st.v), roll, pitch,
+                           math.remainder(yaw_c - alpha, 2.0 * math.pi), self.omega_b.copy(), cn @ c_bc, pos,
+                           m @ self.p[V3_BLOCK] @ m.T,
                            np.array([tilt, tilt, self.p[em.GAMMA, em.GAMMA]]), np.diag(self.p)[em.BG].copy())
 
     def augment(self, p_new, p_cross=None):

@@ -46,8 +46,46 @@ class BaseLinkState:
     twist_cov: np.ndarray     # vx, vy, vz, wx, wy, wz
 
     def finite(self):
-        return all(np.all(np.isfinite(a)) for a in (self.position, self.rpy, self.pose_cov, self.velocity,
-                                                     self.rates, self.twist_cov))
+        """No NaN or inf anywhere (one sum: NaN and inf propagate)."""
+        return math.isfinite(float(self.position.sum() + self.rpy.sum() + self.pose_cov.sum() + self.velocity.sum()
+                                   + self.rates.sum() + self.twist_cov.sum()))
+
+    def positive_definite(self):
+        """Both covariances positive-definite (symmetric by construction; the attitude and rate blocks are diagonal
+        and uncorrelated with the position and velocity blocks: Sylvester's criterion on those)."""
+        return all(positive_definite3(c[:3, :3].tolist()) and c[3:, 3:].diagonal().min() > 0
+                   for c in (self.pose_cov, self.twist_cov))
+
+
+def positive_definite3(c):
+    """Sylvester's criterion for a symmetric 3x3 matrix (nested lists): all leading principal minors positive."""
+    (a, b, d), (_, e, f), (_, _, g) = c
+    m2 = a * e - b * b
+    return a > 0 and m2 > 0 and a * (e * g - f * f) - b * (b * g - f * d) + d * (b * f - e * d) > 0
+
+
+class FastPlane:
+    """LocalTangentPlane.to_enu for one point in plain floats: pymap3d's WGS-84 formulas (geodetic -> ECEF, the
+    difference to the datum's -> ENU) without its per-call overhead (the INS converts every sample)."""
+
+    A2, B_A2 = 6378137.0 ** 2, (6356752.31424518 / 6378137.0) ** 2   # pymap3d's wgs84 semi-axes
+
+    def __init__(self, plane):
+        lat0, lon0 = math.radians(plane.lat_deg), math.radians(plane.lon_deg)
+        self.origin = self._ecef(lat0, lon0, plane.alt_m)
+        self.sl, self.cl, self.so, self.co = math.sin(lat0), math.cos(lat0), math.sin(lon0), math.cos(lon0)
+
+    @classmethod
+    def _ecef(cls, lat, lon, alt):
+        cl, sl = math.cos(lat), math.sin(lat)
+        n = cls.A2 / math.hypot(6378137.0 * cl, 6356752.31424518 * sl)
+        return (n + alt) * cl * math.cos(lon), (n + alt) * cl * math.sin(lon), (n * cls.B_A2 + alt) * sl
+
+    def to_enu(self, lat_deg, lon_deg, alt_m):
+        x, y, z = self._ecef(math.radians(lat_deg), math.radians(lon_deg), alt_m)
+        u, v, w = x - self.origin[0], y - self.origin[1], z - self.origin[2]
+        t = self.co * u + self.so * v
+        return -self.so * u + self.co * v, -self.sl * t + self.cl * w, self.cl * t + self.sl * w
 
 
 def base_link_state(sol, mounts, plane, rate_var=(0.0, 0.0, 0.0)):

@@ -1,9 +1,9 @@
 """`agnav bench cost [--repeats N] [--json]`: cost per IMU message of every navigation backend on this machine.
 
-The thesis module's estimators (`agnav`, `thesis`) run as shipped: the simulated asphalt_loop run's own ROS
-messages (bag order) through nav_sensor_module_node's NavigationPipeline with config nsm's parameters
-(agnav_sim_eval.offline), so the figure includes the front end (guards, pairing, conversions) and the output. The
-GNSS/INS runs its core (InsEkf, as `agnav bench ins` does) on mems_field. Each figure is the fastest of `repeats`
+Every backend runs as shipped: a simulated run's own ROS messages (bag order) through nav_sensor_module_node's
+NavigationPipeline with its config's parameters (agnav_sim_eval.offline), so the figure includes the front end
+(guards, pairing, conversions) and the output: `agnav` and `thesis` with config nsm on asphalt_loop, the GNSS/INS
+(`ins` backend) with config ins on mems_field. Each figure is the fastest of `repeats`
 replays (the others are disturbed by whatever else runs on the machine); the load average is reported with it.
 Goals (issue 14: half of the costs measured before): agnav <= 110 us, thesis <= 50 us, INS <= 130 us.
 """
@@ -12,27 +12,27 @@ import json
 import os
 import time
 
+from agnav_bringup.graph_config import load_config
 from agnav_sim_eval import offline
-from agnav_sim_eval.bench.ins import run_ins_sim
 from agnav_sim_eval.bench.module_runs import NSM, sim_rows
 
 GOALS_US = {"agnav": 110.0, "thesis": 50.0, "ins": 130.0}
 
 
-def pipeline_us(rows, estimator):
-    """us per IMU message of one replay of `rows` through a fresh pipeline."""
-    pipeline = offline.pipeline_for(NSM, estimator=estimator)
+def pipeline_us(rows, estimator, config=NSM):
+    """us per IMU message of one replay of `rows` through a fresh pipeline of `config`."""
+    pipeline = offline.pipeline_for(config, estimator=estimator)
     start = time.perf_counter()
-    states = offline.run_rows(pipeline, NSM, rows)
+    states = offline.run_rows(pipeline, config, rows)
     return (time.perf_counter() - start) / len(states) * 1e6
 
 
 def measure(repeats):
     from agnav_sim_eval.sim import simulate
     rows = sim_rows(simulate("asphalt_loop", seed=1, messages=True))
-    ins_run = simulate("mems_field", seed=1)
+    ins_rows, ins = sim_rows(simulate("mems_field", seed=1, messages=True)), load_config("ins")
     cost = {e: min(pipeline_us(rows, e) for _ in range(repeats)) for e in ("agnav", "thesis")}
-    cost["ins"] = min(run_ins_sim(ins_run)["us"] for _ in range(repeats))
+    cost["ins"] = min(pipeline_us(ins_rows, "ins", ins) for _ in range(repeats))
     return {"us_per_imu_message": {k: round(v, 1) for k, v in cost.items()}, "goal_us": GOALS_US,
             "meets_goal": {k: cost[k] <= GOALS_US[k] for k in cost}, "repeats": repeats,
             "load_average_1min": round(os.getloadavg()[0], 2)}
