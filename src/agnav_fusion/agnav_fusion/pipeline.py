@@ -14,9 +14,10 @@ Front end (what every estimator needs once):
   velocity of the fixes over the last `fix_velocity_baseline` m (at most FIX_HISTORY fixes back) is used;
 - the tilt source: inclinometer messages, or the accelerometer's gravity direction (`tilt_source: accelerometer`).
 The backend (NavSensorModule: estimator `agnav` or `thesis`; InsNavigation: `ins`) guards values and stamps,
-replays late fixes against its IMU history and keeps the covariances. A `strapdown` backend (the INS integrates
-specific force at the IMU point, on the earth) also gets the accelerometer (base_link axes; an IMU message without
-one is counted `imu_no_accel`), the base_link -> imu_link translation, the map plane and the 3x3 ENU covariance of
+replays late fixes against its IMU history and keeps the covariances. Every backend gets the accelerometer's
+specific force in base_link axes (None when the message says it has none: covariance[0] = -1, REP-145). A
+`strapdown` backend (the INS integrates specific force at the IMU point, on the earth) needs it (an IMU message
+without one is counted `imu_no_accel`) and also gets the base_link -> imu_link translation, the map plane and the 3x3 ENU covariance of
 /gnss/vel (None: unknown) in place of its per-axis horizontal variance.
 """
 import math
@@ -104,11 +105,11 @@ class NavigationPipeline:
         t = stamp_seconds(msg.header)
         self._submit_fixes(lambda fix: fix[3] < t)
         r, w, a = self.imu_rotation, msg.angular_velocity, msg.linear_acceleration
-        accel = r @ np.array([a.x, a.y, a.z]) if self.strapdown or self.settings.tilt_source == "accelerometer" \
-            else None
-        if self.settings.tilt_source == "accelerometer":
+        # REP-145: covariance[0] -1 = no accelerometer; every backend gets the specific force (None without one)
+        accel = None if msg.linear_acceleration_covariance[0] == -1.0 else r @ np.array([a.x, a.y, a.z])
+        if self.settings.tilt_source == "accelerometer" and accel is not None:
             self.backend.inclinometer(t, *accelerometer_tilt(accel))
-        state = self.backend.imu(t, r @ np.array([w.x, w.y, w.z]), *((accel,) if self.strapdown else ()))
+        state = self.backend.imu(t, r @ np.array([w.x, w.y, w.z]), accel)
         if state is not None:
             self.last_imu_t = max(self.last_imu_t, state.t)
         return state
