@@ -17,6 +17,24 @@ class TrackingError:
     line_yaw: float       # rad, ENU yaw of the followed direction
     speed: float          # m/s along the followed direction
     along_track: float    # m from the line origin along line_yaw
+    crab: float = 0.0     # rad, side slip: course over ground minus yaw (+ sliding left)
+
+    @property
+    def course_error(self) -> float:
+        """Course over ground minus line yaw (rad): the heading error the controllers steer, so that a crabbing
+        vehicle holds the line with its body turned into the slope (feed-forward of the crab)."""
+        return wrap_angle(self.heading_error + self.crab)
+
+
+MAX_CRAB = 0.2  # rad, default clamp of the crab angle taken from the twist (11 deg: far beyond a slope's slide)
+
+
+def crab_angle(speed: float, lateral_speed: float, max_crab: float = MAX_CRAB, min_speed: float = 0.3) -> float:
+    """Side-slip angle (rad, + left) from the base_link twist: atan(linear.y / linear.x), 0 below min_speed (m/s),
+    clamped to +-max_crab."""
+    if abs(speed) < min_speed:
+        return 0.0
+    return min(max(math.atan(lateral_speed / speed), -max_crab), max_crab)
 
 
 @dataclass(frozen=True)
@@ -54,8 +72,10 @@ class GuidanceLine:
         e = self.error(x, y, self.yaw, 0.0, bidirectional=False).cross_track
         return GuidanceLine(x + e * math.sin(yaw), y - e * math.cos(yaw), wrap_angle(yaw))
 
-    def error(self, x: float, y: float, yaw: float, speed: float, bidirectional: bool = True) -> TrackingError:
-        """Cross-track and heading error; with bidirectional the direction nearer the vehicle yaw is followed."""
+    def error(self, x: float, y: float, yaw: float, speed: float, bidirectional: bool = True,
+              crab: float = 0.0) -> TrackingError:
+        """Cross-track and heading error; with bidirectional the direction nearer the vehicle yaw is followed;
+        crab (rad) is carried to the controllers (TrackingError.course_error)."""
         line = self
         if bidirectional and abs(wrap_angle(yaw - self.yaw)) > math.pi / 2:
             line = self.reversed()
@@ -63,7 +83,7 @@ class GuidanceLine:
         dx, dy = x - line.x, y - line.y
         he = wrap_angle(yaw - line.yaw)
         return TrackingError(cross_track=-s * dx + c * dy, heading_error=he, line_yaw=line.yaw,
-                             speed=speed * math.cos(he), along_track=c * dx + s * dy)
+                             speed=speed * math.cos(he), along_track=c * dx + s * dy, crab=crab)
 
 
 @dataclass(frozen=True)

@@ -34,5 +34,5 @@ class PurePursuit:
         s = self.settings
         lookahead = max(self.lookahead(err.speed), abs(err.cross_track) + 1e-3)
         ahead = math.sqrt(lookahead**2 - err.cross_track**2)
-        bearing = math.atan2(-err.cross_track, ahead) - err.heading_error  # goal point seen from the vehicle
+        bearing = math.atan2(-err.cross_track, ahead) - err.course_error  # goal point seen along the course
         return self.limiter(math.atan(2.0 * s.wheelbase * math.sin(bearing) / lookahead), dt)

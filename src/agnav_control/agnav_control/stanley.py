@@ -27,7 +27,7 @@ class Stanley:
 
     def update(self, err: TrackingError, dt: float) -> float:
         s = self.settings
-        h = err.heading_error
+        h = err.course_error
         e_front = err.cross_track + s.wheelbase * math.sin(h)
         desired = -(s.heading_gain * h + math.atan2(s.gain * e_front, s.soft_speed + abs(err.speed)))
         return self.limiter(desired, dt)

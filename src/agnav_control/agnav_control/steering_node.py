@@ -18,7 +18,7 @@ from agnav_common.parameters import bounded, declare, leaves
 from agnav_common.qos import LATCHED_QOS, PUBLISHER_QOS, SENSOR_QOS, subscribe_input
 from agnav_common.stamps import to_sec
 from agnav_common.variance_weighted_average import VwaSettings
-from agnav_msgs.msg import GuidanceState, SteeringCommand
+from agnav_msgs.msg import GnssStatus, GuidanceState, SteeringCommand
 from nav_msgs.msg import Odometry
 from rclpy.node import Node
 from rosgraph_msgs.msg import Clock
@@ -27,7 +27,7 @@ from std_msgs.msg import Header
 from std_srvs.srv import SetBool, Trigger
 
 from .controllers import CONTROLLERS
-from .guidance_line import GuidanceLine, LineTeacher, ParallelPasses, VariableTargetLine
+from .guidance_line import GuidanceLine, LineTeacher, ParallelPasses, VariableTargetLine, MAX_CRAB, crab_angle
 from .limits import SteeringLimits
 from .watchdog import Watchdog, WatchdogSettings, odometry_sample
 
@@ -82,6 +82,8 @@ class SteeringNodeSettings:
     variable_target: VariableTarget = field(default_factory=VariableTarget)
     line: LineSettings = field(default_factory=LineSettings)
     engage_when_ready: bool = False  # engage once, at the first healthy odometry with a line (unattended runs)
+    crab_feed_forward: bool = True   # steer the course over ground: crab = atan(twist linear.y / linear.x)
+    max_crab: float = field(default=MAX_CRAB, metadata=bounded(0.0, 1.0))  # rad, clamp of that crab angle
 
 
 def _controller_settings():
@@ -126,6 +128,7 @@ class SteeringNode(Node):
         # one explicit engage request from the config, honoured once at the first healthy odometry with a line
         # (unattended simulation runs); a later disengage is final like any other
         self.engage_pending = s.engage_when_ready
+        self.max_crab = s.max_crab if s.crab_feed_forward else 0.0
         self.settings = s
 
         self.base_line = self.line = None
@@ -143,6 +146,7 @@ class SteeringNode(Node):
         self.cmd_pub = self.create_publisher(SteeringCommand, "steering/command", PUBLISHER_QOS)
         subscribe_input(self, Odometry, "odometry/filtered", self._on_odometry)
         self.create_subscription(NavSatFix, "map_datum", self._on_datum, LATCHED_QOS)
+        subscribe_input(self, GnssStatus, "gnss/status", self._on_gnss_status)  # receiver class of the gates
         if not self.get_parameter("use_sim_time").value:
             self.create_subscription(Clock, "/clock", self._on_clock, SENSOR_QOS)
         self.create_service(Trigger, "steering/set_line_here", self._srv_set_line_here)
@@ -165,6 +169,9 @@ class SteeringNode(Node):
 
     def _on_clock(self, msg: Clock):
         self.clock_topic = to_sec(msg.clock)
+
+    def _on_gnss_status(self, msg: GnssStatus):
+        self.watchdog.fix_type = msg.fix_type
 
     # ---- line management -------------------------------------------------------------------------------
     def _set_line(self, line: GuidanceLine, source: str):
@@ -244,7 +251,8 @@ class SteeringNode(Node):
         q = msg.pose.pose.orientation
         _, _, yaw = euler_from_quaternion(q.x, q.y, q.z, q.w)
         sample, problem = odometry_sample(msg.pose.pose.position.x, msg.pose.pose.position.y, yaw,
-                                          msg.twist.twist.linear.x, msg.pose.covariance, msg.twist.covariance, t)
+                                          msg.twist.twist.linear.x, msg.pose.covariance, msg.twist.covariance, t,
+                                          msg.twist.twist.linear.y)
         if sample is None:
             self.events.add(problem.replace(" ", "_"), now)
             self.watchdog.reject(now, f"invalid odometry: {problem}")
@@ -268,7 +276,8 @@ class SteeringNode(Node):
             self.engage_pending = not self._engage(self._now())[0]
         if self.use_variable_target and self.watchdog.engaged:
             self.line = self.variable_target.update(self.line, t, sample.x, sample.y, yaw)
-        err = self.line.error(sample.x, sample.y, yaw, sample.speed, self.bidirectional)
+        err = self.line.error(sample.x, sample.y, yaw, sample.speed, self.bidirectional,
+                              crab_angle(sample.speed, sample.lateral_speed, self.max_crab))
         self.state_pub.publish(GuidanceState(header=msg.header, engaged=self.watchdog.engaged,
                                              cross_track_error=err.cross_track, heading_error=err.heading_error,
                                              line_yaw=err.line_yaw, speed=err.speed))

@@ -32,7 +32,7 @@ class ThesisPI:
 
     def update(self, err: TrackingError, dt: float) -> float:
         s = self.settings
-        dphi = -err.heading_error
+        dphi = -err.course_error
         if s.cross_track == "measured":
             self.eps = -err.cross_track
         else:

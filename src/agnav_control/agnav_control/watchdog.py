@@ -1,14 +1,31 @@
 """Engage state and fail-safe of the autosteer: disengage on stale (no message, or an old stamp), NaN, invalid
 covariance, uncertain, slow or panic-braking odometry; engage only on an explicit request; never re-engage by
-itself."""
+itself.
+
+Gates per receiver class (the last /gnss/status fix type), as commercial autosteer activates on the correction
+class it is set up for (AutoTrac: "can be activated when SF1/SF2 is confirmed; accuracy may continue to increase"):
+RTK fixed or unknown -> the top-level gates; DGPS and RTK float -> `dgps`, sized for an honest decimetre-class
+covariance (NMEA: HDOP x 1 m) and the heading σ a crabbing DGPS tractor reaches. The line following needs the
+relative accuracy, which the absolute σ of DGPS does not describe; stale, NaN, invalid or divergent covariance
+(beyond the class' max) still disengages."""
 import math
 from collections import deque
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from agnav_common.input_guard import covariance, finite
 
 POSE_BLOCK = (0, 1, 5)  # x, y, yaw rows/columns of the 6x6 pose covariance the watchdog uses
+FIX_DGPS, FIX_RTK_FLOAT = 2, 3  # agnav_msgs/GnssStatus fix types that select the `dgps` gates
+
+
+@dataclass
+class ReceiverGates:
+    """Gates of a decimetre-class receiver (DGPS / SBAS / RTK float)."""
+
+    engage_position_std: float = 1.0  # m, engage gate on the position std
+    engage_yaw_std: float = 0.035      # rad, engage gate on the yaw std (2 deg: a 1.5 deg crab is not yet observed)
+    max_position_std: float = 1.5      # m, fail-safe: a larger position std disengages
 
 
 @dataclass
@@ -23,6 +40,7 @@ class WatchdogSettings:
     engage_yaw_std: float = 0.01       # rad, stricter yaw gate for an engage request
     max_stamp_age: float = 0.3         # s the last odometry stamp may lie behind the reference time (the node
     # clock: sim time under use_sim_time); checked on every message, timer tick and engage request
+    dgps: ReceiverGates = field(default_factory=ReceiverGates)  # gates while /gnss/status says DGPS or RTK float
 
 
 @dataclass(frozen=True)
@@ -41,9 +59,10 @@ class OdometrySample:
     position_var: float  # m^2, larger of the x/y variances
     yaw_var: float       # rad^2
     stamp: float | None = None  # s, measurement epoch; None: the stamp age is not checked
+    lateral_speed: float = 0.0  # m/s, base_link twist linear.y (side slip: crab = atan(lateral / speed))
 
 
-def odometry_sample(x, y, yaw, speed, pose_cov, twist_cov, stamp=None):
+def odometry_sample(x, y, yaw, speed, pose_cov, twist_cov, stamp=None, lateral_speed=0.0):
     """(OdometrySample, None) from nav_msgs/Odometry fields (36-element covariances), or (None, reason) when the
     covariance used (pose x, y, yaw block; twist vx variance) has NaN/Inf, negative variances or is indefinite."""
     pose, problem = covariance(np.asarray(pose_cov, dtype=float).reshape(6, 6)[np.ix_(POSE_BLOCK, POSE_BLOCK)])
@@ -52,7 +71,8 @@ def odometry_sample(x, y, yaw, speed, pose_cov, twist_cov, stamp=None):
     twist, problem = covariance([twist_cov[0]])
     if twist is None:
         return None, f"twist {problem.replace('_', ' ')}"
-    return OdometrySample(x, y, yaw, speed, float(max(pose[0, 0], pose[1, 1])), float(pose[2, 2]), stamp), None
+    return OdometrySample(x, y, yaw, speed, float(max(pose[0, 0], pose[1, 1])), float(pose[2, 2]), stamp,
+                          lateral_speed), None
 
 
 class Watchdog:
@@ -68,11 +88,20 @@ class Watchdog:
         self._last_time = None
         self._last_sample = None
         self._speeds = deque()  # (t, speed) over decel_window
+        self.fix_type = None    # last /gnss/status fix type; None: unknown (top-level gates)
+
+    def gates(self) -> tuple[float, float, float]:
+        """(engage position std m, engage yaw std rad, max position std m) of the current receiver class."""
+        s = self.settings
+        if self.fix_type in (FIX_DGPS, FIX_RTK_FLOAT):
+            return s.dgps.engage_position_std, s.dgps.engage_yaw_std, s.dgps.max_position_std
+        return s.engage_position_std, s.engage_yaw_std, s.max_position_std
 
     def odometry(self, now: float, sample: OdometrySample, ref: float | None = None) -> str | None:
         """Record a message received at `now` (s), its stamp judged against the reference time `ref` (s, None:
         unknown); returns the fault it shows, or None when healthy."""
-        if not finite(sample.x, sample.y, sample.yaw, sample.speed, sample.position_var, sample.yaw_var):
+        if not finite(sample.x, sample.y, sample.yaw, sample.speed, sample.position_var, sample.yaw_var,
+                      sample.lateral_speed):
             return self.reject(now, "non-finite odometry")
         health = self._assess(now, sample)
         self._last_sample, self._last_time = sample, now
@@ -108,8 +137,9 @@ class Watchdog:
         self.check(now, ref)
         if self.fault is not None:
             return False, f"refused: {self.fault}"
-        s, m = self.settings, self._last_sample
-        if not self.engaged and (m.position_var > s.engage_position_std**2 or m.yaw_var > s.engage_yaw_std**2):
+        m = self._last_sample
+        position_std, yaw_std, _ = self.gates()
+        if not self.engaged and (m.position_var > position_std**2 or m.yaw_var > yaw_std**2):
             return False, (f"refused: not converged (position std {math.sqrt(m.position_var):.3f} m, "
                            f"yaw std {math.sqrt(m.yaw_var):.4f} rad)")
         if not self.engaged:
@@ -138,8 +168,9 @@ class Watchdog:
         t0, v0 = self._speeds[0]
         if now - t0 > 0.5 * s.decel_window and (v0 - m.speed) / (now - t0) > s.panic_deceleration:
             return f"panic deceleration {(v0 - m.speed) / (now - t0):.1f} m/s^2"
-        if m.position_var > s.max_position_std**2 or m.position_var < 0.0:
-            return f"position std {math.sqrt(abs(m.position_var)):.3f} m above {s.max_position_std} m"
+        max_position_std = self.gates()[2]
+        if m.position_var > max_position_std**2 or m.position_var < 0.0:
+            return f"position std {math.sqrt(abs(m.position_var)):.3f} m above {max_position_std} m"
         if m.yaw_var > s.max_yaw_std**2 or m.yaw_var < 0.0:
             return f"yaw std {math.sqrt(abs(m.yaw_var)):.3f} rad above {s.max_yaw_std} rad"
         if abs(m.speed) < s.min_speed:

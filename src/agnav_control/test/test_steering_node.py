@@ -42,7 +42,7 @@ class Harness:
         while time.monotonic() < end:
             self.executor.spin_once(timeout_sec=0.005)
 
-    def odom(self, x, y, yaw, speed=2.0, var=1e-4, stamp=None, age=0.0, cov=None, twist_var=0.0):
+    def odom(self, x, y, yaw, speed=2.0, var=1e-4, stamp=None, age=0.0, cov=None, twist_var=0.0, lateral=0.0):
         """Publish one odometry message stamped `stamp` (s), else the node clock minus `age` (s); `cov`
         {index: value} overrides pose covariance entries; returns the stamp."""
         msg = Odometry()
@@ -59,7 +59,7 @@ class Harness:
             pose_cov[i] = v
         msg.pose.covariance = pose_cov
         msg.twist.covariance[0] = twist_var
-        msg.twist.twist.linear.x = speed
+        msg.twist.twist.linear.x, msg.twist.twist.linear.y = speed, lateral
         self.pub.publish(msg)
         self.spin(0.02)
         return stamp
@@ -112,6 +112,27 @@ def test_state_engage_stale_and_no_self_reengage(harness):
     for k in range(30, 45):  # odometry resumes healthy: stays disengaged
         h.odom(k * 0.04, 0.5, 0.0)
     assert not h.commands[-1].engaged and not h.states[-1].engaged
+
+
+def test_dgps_status_opens_the_decimetre_gates_and_crab_feeds_forward(harness):
+    h = harness
+    honest = {0: 0.8**2, 7: 0.8**2, 35: math.radians(1.6) ** 2}  # NMEA DGPS without GST, unseen-crab heading σ
+    for k in range(5):
+        h.odom(k * 0.04, 0.0, 0.0, cov=honest)
+    reply = h.call(SetBool, "/steering/engage", data=True)
+    assert not reply.success and "position std" in reply.message
+    status_pub = h.peer.create_publisher(agnav_msgs.GnssStatus, "/gnss/status", 10)
+    h.spin(0.3)  # discovery
+    status_pub.publish(agnav_msgs.GnssStatus(fix_type=agnav_msgs.GnssStatus.FIX_DGPS))
+    h.spin(0.1)
+    for k in range(5, 10):
+        h.odom(k * 0.04, 0.0, 0.0, cov=honest)
+    assert h.call(SetBool, "/steering/engage", data=True).success
+    # on the line, yaw along it, sliding right at 0.03 rad: the course error -0.03 rad steers left
+    for k in range(10, 20):
+        h.odom(k * 0.04, 0.0, 0.0, cov=honest, lateral=-2.0 * math.tan(0.03))
+    assert h.commands[-1].engaged and h.commands[-1].steering_angle > 0.0
+    assert h.states[-1].heading_error == pytest.approx(0.0)  # GuidanceState keeps the body heading error
 
 
 def test_nan_odometry_never_published_and_refused_engage(harness):
