@@ -1,16 +1,19 @@
 """Offline closed loop (ROS-free): TractorSimulator -> sensor samples -> estimator -> controller -> steering.
 The operator drives the first metres (the simulator's route driver), then engages; the run is scored on the
-true base_link cross-track to the desired line (the scenario route, offset by line_offset)."""
+true base_link cross-track to the desired line (the scenario route, offset by line_offset). The watchdog has the
+steering node's default gates and hears the receiver class (/gnss/status fix type) as the node does.
+estimator: "nav" (the navigation node's pipeline on RTK/DGPS scenarios, the VWA on GDS ones) or "truth"
+(perfect state: true pose, speed and lateral speed, to test the steering alone)."""
 import math
 from dataclasses import dataclass, field, fields
 
 import numpy as np
 from agnav_control.controllers import CONTROLLERS, make_controller
-from agnav_control.guidance_line import GuidanceLine
+from agnav_control.guidance_line import GuidanceLine, crab_angle
 from agnav_control.limits import SteeringLimits
-from agnav_control.watchdog import Watchdog
+from agnav_control.watchdog import OdometrySample, Watchdog
 
-from agnav_sim_eval.fusion_adapters import GdsSettings, GdsVwaEstimator, NsmEstimator
+from agnav_sim_eval.fusion_adapters import GdsSettings, GdsVwaEstimator, NsmEstimator, Pose
 from agnav_sim_eval.sim import TractorSimulator
 
 
@@ -26,6 +29,8 @@ class ClosedLoopSettings:
     line_offset: float = 0.0         # m, desired line left of the route: step response / settling
     control_rate: float = 0.0        # Hz; 0 = at every estimator output (as the node: at the odometry rate)
     gds_speed: float = 0.5           # m/s, v(k) of (2.7) for the GDS system (no odometer; thesis value)
+    estimator: str = "nav"           # nav | truth (perfect state)
+    crab_feed_forward: bool = True   # steer the course over ground (crab from the lateral speed), as the node
 
 
 @dataclass
@@ -38,6 +43,10 @@ class ClosedLoopResult:
     disengaged: str | None  # watchdog reason if it ended the run early
     gnss_error: np.ndarray = field(default_factory=lambda: np.zeros(0))  # m, fix error across the line while engaged
     engaged_at: float = math.nan  # m travelled when the engage request was granted (the fusion had converged)
+
+    @property
+    def mean(self) -> float:
+        return float(np.mean(self.cross_track))
 
     @property
     def rms(self) -> float:
@@ -68,6 +77,40 @@ def _controller(settings: ClosedLoopSettings, vehicle):
     return make_controller(settings.controller, limits=limits, **gains)
 
 
+class TruthEstimator:
+    """Perfect state: the simulator's true base_link pose, forward and lateral speed, with tiny variances."""
+
+    VAR = 1e-8
+
+    def __init__(self, sim):
+        self.sim = sim
+
+    @staticmethod
+    def feed_order(sample):
+        return 0
+
+    def feed(self, kind: str, stamp: float, data: dict):
+        pass
+
+    def pose(self) -> Pose:
+        tr = self.sim.truth_state()
+        c, s = math.cos(tr["yaw"]), math.sin(tr["yaw"])
+        forward, lateral = c * tr["vx"] + s * tr["vy"], -s * tr["vx"] + c * tr["vy"]
+        return Pose(tr["t"], OdometrySample(tr["x"], tr["y"], tr["yaw"], forward, self.VAR, self.VAR,
+                                            lateral_speed=lateral))
+
+
+def _estimator(settings, sim, line_yaw):
+    sc = sim.scenario
+    if settings.estimator == "truth":
+        return TruthEstimator(sim)
+    if settings.estimator != "nav":
+        raise ValueError(f"estimator must be nav | truth, not {settings.estimator!r}")
+    if sc.gnss is not None:
+        return NsmEstimator(sim, settings.tilt)
+    return GdsVwaEstimator(sc, line_yaw, GdsSettings(speed=settings.gds_speed))
+
+
 def run(settings: ClosedLoopSettings) -> ClosedLoopResult:
     """Simulate one engaged straight run and return its trace."""
     sim = TractorSimulator(settings.scenario, settings.seed)
@@ -75,8 +118,8 @@ def run(settings: ClosedLoopSettings) -> ClosedLoopResult:
     route = np.asarray(sc.route, dtype=float)
     line = GuidanceLine.from_points(route[0], route[-1]).offset(settings.line_offset)
     score_line = line
-    rtk = sc.gnss is not None
-    est = NsmEstimator(sim, settings.tilt) if rtk else GdsVwaEstimator(sc, line.yaw, GdsSettings(speed=settings.gds_speed))
+    absolute = sc.gnss is not None or settings.estimator == "truth"  # an absolute position: the line stays put
+    est = _estimator(settings, sim, line.yaw)
     controller = _controller(settings, sc.vehicle)
     watchdog = Watchdog()
     period = 1.0 / settings.control_rate if settings.control_rate > 0 else 0.0
@@ -86,6 +129,8 @@ def run(settings: ClosedLoopSettings) -> ClosedLoopResult:
         for kind, stamp, data in sorted(sim.step(command if watchdog.engaged else None), key=est.feed_order):
             if kind != "truth":
                 est.feed(kind, stamp, data)
+            if kind == "gnss":
+                watchdog.fix_type = data["fix_type"]  # /gnss/status
             if kind == "gnss" and watchdog.engaged:
                 gnss_errors.append(score_line.error(*data["enu"][:2], 0.0, 0.0).cross_track
                                    - score_line.error(*data["truth_enu"][:2], 0.0, 0.0).cross_track)
@@ -100,7 +145,7 @@ def run(settings: ClosedLoopSettings) -> ClosedLoopResult:
         if start is None and sim.travelled >= settings.manual_distance:
             if watchdog.request_engage(t)[0]:
                 controller.reset()
-                if not rtk:  # no absolute position: the target line starts where the system engages
+                if not absolute:  # no absolute position: the target line starts where the system engages
                     line = GuidanceLine(odo.x, odo.y, line.yaw)
                 start = score_line.error(truth["x"], truth["y"], truth["yaw"], 0.0).along_track
                 engaged_at = sim.travelled
@@ -109,7 +154,8 @@ def run(settings: ClosedLoopSettings) -> ClosedLoopResult:
             break
         if not watchdog.engaged:
             continue
-        err = line.error(odo.x, odo.y, odo.yaw, odo.speed)
+        crab = crab_angle(odo.speed, odo.lateral_speed) if settings.crab_feed_forward else 0.0
+        err = line.error(odo.x, odo.y, odo.yaw, odo.speed, crab=crab)
         command = controller.update(err, dt)
         true = score_line.error(truth["x"], truth["y"], truth["yaw"], truth["speed"])
         rows.append((t, true.along_track - start, true.cross_track, err.cross_track, command))

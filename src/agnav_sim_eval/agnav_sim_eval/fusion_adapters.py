@@ -6,14 +6,15 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-from agnav_common.frames import rotation_matrix
+from agnav_common.frames import euler_from_quaternion, rotation_matrix
 from agnav_common.variance_weighted_average import VariableTargetVwa, VwaSettings
-from agnav_control.watchdog import OdometrySample
+from agnav_control.watchdog import OdometrySample, odometry_sample
 from agnav_fusion.attitude_kf import AttitudeKFSettings
 from agnav_fusion.gds_drift_lsm import Unwrapper
 from agnav_fusion.gds_heading import magnetic_heading, tilt_compensate
 from agnav_fusion.nav_ekf import NavEKFSettings
 from agnav_fusion.nav_sensor_module import NavSensorModule, NavSensorModuleSettings
+from agnav_fusion.nav_sensor_module_node import odometry_message
 from agnav_fusion.pipeline import FrontEndSettings, NavigationPipeline
 
 from agnav_sim_eval.sim.messages import START_EPOCH_S, MessageFactory
@@ -80,13 +81,18 @@ class NsmEstimator:
                 getattr(self.pipeline, self.METHODS[topic])(msg)
 
     def pose(self) -> Pose | None:
-        """The latest output once heading and position are valid (what the steering node engages on)."""
+        """The latest output once heading and position are valid, read as the steering node reads the node's
+        /odometry/filtered (pose, twist incl. the lateral speed linear.y, covariances)."""
         s = self.nsm.state()
         if s is None or not (s.heading_valid and s.position_valid):
             return None
-        c = s.pose_cov
-        return Pose(s.t - START_EPOCH_S, OdometrySample(float(s.position[0]), float(s.position[1]), float(s.rpy[2]),
-                                                        float(s.speed), max(c[0, 0], c[1, 1]), c[5, 5]))
+        msg = odometry_message(s, {"map": "map", "base": "base_link"})
+        p, q, v = msg.pose.pose.position, msg.pose.pose.orientation, msg.twist.twist.linear
+        sample, problem = odometry_sample(p.x, p.y, euler_from_quaternion(q.x, q.y, q.z, q.w)[2], v.x,
+                                          msg.pose.covariance, msg.twist.covariance, lateral_speed=v.y)
+        if sample is None:
+            raise ValueError(f"invalid odometry: {problem}")
+        return Pose(s.t - START_EPOCH_S, sample)
 
 
 @dataclass

@@ -29,3 +29,19 @@ def test_gds_vwa_run_with_thesis_law():
                                manual_distance=5.0, auto_distance=35.0))
     assert r.along[-1] > 30.0
     assert r.max_abs < 0.2
+
+
+DGPS_SLOPE = dict(scenario="dgps_slope_crab", manual_distance=3.0, auto_distance=60.0)
+
+
+def test_perfect_state_crab_feed_forward_leaves_no_mean_offset():
+    ff = run(ClosedLoopSettings(seed=1, estimator="truth", **DGPS_SLOPE))
+    blind = run(ClosedLoopSettings(seed=1, estimator="truth", crab_feed_forward=False, **DGPS_SLOPE))
+    assert abs(ff.mean) < 0.01 and ff.disengaged is None
+    assert blind.mean < -0.02  # the unseen 1.5 deg crab: downhill (right) until the integral holds it
+
+
+def test_dgps_tractor_engages_on_default_gates():
+    r = run(ClosedLoopSettings(seed=1, **DGPS_SLOPE))
+    assert r.disengaged is None and r.engaged_at < 20.0 and r.along[-1] >= 60.0
+    assert r.rms < 0.12

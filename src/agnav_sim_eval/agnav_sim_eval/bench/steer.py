@@ -7,6 +7,9 @@ request (granted once the cold-started fusion passes the engage gates) then 150 
 RTK 5 Hz, antenna (0, -1.67, 3.23) m, with and without tilt correction, default controller PID (ch. IV);
 gds_straight_slow = 5 m manual then 35 m at 0.5 m/s, GDS + FOG VWA variable target, thesis law (2.6)-(2.7).
 Settling: the RTK run engaged on a line 0.5 m beside the vehicle; distance until |e| stays < 10 cm (mean over seeds).
+Issue 15 acceptance on seeds from 1000 (never tuned on): rtk_straight_fast (RTK 4.3 m/s, tilled field) and
+dgps_slope_crab (DGPS 1 Hz, 1.5 m/s across a 5 deg slope, 1.5 deg crab) through the navigation pipeline with the
+default gates, and dgps_slope_crab on perfect state with and without the crab feed-forward.
 """
 import argparse
 import json
@@ -22,6 +25,10 @@ from agnav_sim_eval.bench import docs_option, write_docs
 
 RTK = dict(scenario="rtk_straight_fast", manual_distance=3.0, auto_distance=150.0)
 GDS = dict(scenario="gds_straight_slow", manual_distance=5.0, auto_distance=35.0)
+DGPS = dict(scenario="dgps_slope_crab", manual_distance=3.0, auto_distance=150.0)
+ACCEPTANCE = {"rtk_tilled": RTK, "dgps_slope_crab": DGPS, "truth_crab": dict(DGPS, estimator="truth"),
+              "truth_crab_no_ff": dict(DGPS, estimator="truth", crab_feed_forward=False)}
+FIRST_REPORT_SEED = 1000  # seeds below are for tuning
 DEFAULT = {"rtk": "pid", "gds": "thesis_pi"}
 
 
@@ -66,6 +73,55 @@ def measure(seeds, watchdog_trials):
     return out
 
 
+def _acceptance_case(seeds, kw):
+    """Default controller on each seed: RMS / mean of the true cross-track, fail-safe disengages (never engaged
+    counts as one)."""
+    rms, means, disengages = [], [], 0
+    for seed in seeds:
+        try:
+            r = run(ClosedLoopSettings(seed=seed, controller=DEFAULT["rtk"], **kw))
+        except RuntimeError:
+            disengages += 1
+            continue
+        disengages += r.disengaged is not None
+        rms.append(100 * r.rms)
+        means.append(100 * r.mean)
+    return {"rms_cm": float(np.mean(rms)) if rms else float("nan"), "max_rms_cm": max(rms, default=float("nan")),
+            "mean_cm": float(np.mean(means)) if means else float("nan"),
+            "max_abs_mean_cm": max(map(abs, means), default=float("nan")), "disengages": disengages,
+            "per_seed_rms_cm": rms, "per_seed_mean_cm": means}
+
+
+def measure_acceptance(seeds):
+    out = {"acceptance_seeds": list(seeds), "acceptance": {k: _acceptance_case(seeds, kw) for k, kw in ACCEPTANCE.items()}}
+    a = out["acceptance"]
+    out.update(rtk_tilled_xtrack_rms_cm=a["rtk_tilled"]["rms_cm"], rtk_tilled_disengages=a["rtk_tilled"]["disengages"],
+               dgps_slope_crab_xtrack_rms_cm=a["dgps_slope_crab"]["rms_cm"],
+               dgps_slope_crab_mean_cm=a["dgps_slope_crab"]["mean_cm"],
+               dgps_slope_crab_max_abs_mean_cm=a["dgps_slope_crab"]["max_abs_mean_cm"],
+               dgps_slope_crab_disengages=a["dgps_slope_crab"]["disengages"],
+               truth_crab_mean_cm=a["truth_crab"]["mean_cm"], truth_crab_no_ff_mean_cm=a["truth_crab_no_ff"]["mean_cm"])
+    return out
+
+
+def acceptance_table(r):
+    a = r["acceptance"]
+    rows = [("RTK 4.3 m/s, tilled field (rtk_straight_fast)", "rtk_tilled", "RMS ≤ 2.5"),
+            ("DGPS 1 Hz, 1.5 m/s, 5° slope, 1.5° crab (dgps_slope_crab)", "dgps_slope_crab",
+             "RMS ≤ 8, abs(mean) ≤ 2, 0 disengages"),
+            ("same, perfect state, crab feed-forward (twist linear.y)", "truth_crab", "abs(mean) ≤ 1"),
+            ("same, perfect state, no feed-forward (integral only)", "truth_crab_no_ff", "—")]
+    lines = [f"Issue 15 closed-loop acceptance, default controller ({DEFAULT['rtk']}) and default gates, seeds "
+             f"{r['acceptance_seeds']} (not used for tuning):", "",
+             "| run | RMS mean / worst (cm) | mean offset: mean / worst abs (cm) | fail-safe disengages | goal |",
+             "|---|---|---|---|---|"]
+    for label, key, goal in rows:
+        c = a[key]
+        lines.append(f"| {label} | {c['rms_cm']:.2f} / {c['max_rms_cm']:.2f} | {c['mean_cm']:+.2f} / "
+                     f"{c['max_abs_mean_cm']:.2f} | {c['disengages']} | {goal} |")
+    return lines
+
+
 MATERIAL = 0.05  # relative RMS gain below which a controller does not "clearly" beat the default
 
 
@@ -90,7 +146,7 @@ def _versus_default(r):
 def table(r):
     rtk, gds = DEFAULT["rtk"], DEFAULT["gds"]
     lines = [
-        "# Steering benchmark (`agnav bench steer`)", "",
+        "# Steering benchmark (`agnav bench steer`)", "", *acceptance_table(r), "",
         "Offline closed loop: simulated sensor samples -> agnav_fusion NavSensorModule (RTK rows, configured as the live",
         "`steer` graph) or the variable-target VWA (GDS row) -> controller -> simulated tractor; scored on the true",
         "base_link cross-track to the desired line. "
@@ -156,8 +212,10 @@ def main(argv=None):
     docs_option(ap, "steer.md")
     ap.add_argument("--seeds", type=int, default=5, help="simulator seeds 1..N per case")
     ap.add_argument("--watchdog-trials", type=int, default=5)
+    ap.add_argument("--acceptance-seeds", type=int, default=5, help=f"seeds {FIRST_REPORT_SEED}.. of the issue 15 cases")
     args = ap.parse_args(argv)
     result = measure(list(range(1, args.seeds + 1)), args.watchdog_trials)
+    result.update(measure_acceptance(range(FIRST_REPORT_SEED, FIRST_REPORT_SEED + args.acceptance_seeds)))
     text = table(result)
     print(text)
     if args.write_docs:

@@ -82,6 +82,10 @@ F9P_DGPS = GnssParams(model="u-blox ZED-F9P SBAS", rate_hz=1.0, bias_sigma_m=0.4
                       white_sigma_m=0.05, latency_s=0.1, vel_noise_mps=0.05, fix_type=FIX_DGPS, satellites=18,
                       hdop=0.6, correction_age_s=5.0)
 
+# DGPS of the issue 15 closed-loop test: 1 Hz, slow 2 cm wander [IMPL].
+DGPS_2CM = GnssParams(model="DGPS 1 Hz", rate_hz=1.0, bias_sigma_m=0.02, bias_tau_s=120.0, white_sigma_m=0.015,
+                      latency_s=0.1, vel_noise_mps=0.05, fix_type=FIX_DGPS, correction_age_s=5.0)
+
 SMALL_TRACTOR = VehicleParams(wheelbase_m=1.8, track_m=1.4)
 GL320 = VehicleParams(wheelbase_m=1.6, track_m=1.2)
 MX240 = VehicleParams(wheelbase_m=2.9, track_m=1.9, steer_rate_rad_s=math.radians(40.0), max_accel_mps2=1.0)
@@ -225,6 +229,14 @@ def _build():
                  terrain=TerrainParams(rough_rms_deg=0.8, rough_wavelength_m=(1.5, 4.0)),
                  sway=SwayParams(roll_rms_deg=2.0, pitch_rms_deg=1.8, band_hz=(0.3, 2.0), pitch_band_hz=(0.3, 0.8)),
                  gyro=env05f((0.126, 0.178, -0.21)), mounts=mounts(imu=(0.3, 0.0, 2.0)), **ch5),
+        Scenario("dgps_slope_crab", "Issue 15 closed loop: Case MX240, ≈3 m manual start + 150 m at 1.5 m/s across "
+                 "a 5° slope falling to the right, sliding 1.5° downhill (crab), DGPS 1 Hz (2 cm wander), "
+                 "antenna (−1.67, 0, 3.23) m, FOG IMU",
+                 route=straight(170.0), driver=DriverParams(speed_mps=1.5, accel_mps2=0.5, start_standstill_s=5.0),
+                 vehicle=MX240, terrain=TerrainParams(rough_rms_deg=0.3, rough_wavelength_m=(4.0, 15.0), slope_deg=5.0,
+                                                      slope_axis_yaw=math.pi / 2, slope_ramp_m=(-1e4, -1e4 + 1.0)),
+                 crab_gain=0.3, gyro=fog(0.0056), accel=SERVO_ACCEL, incl=JCS_TILT, gnss=DGPS_2CM,
+                 mounts=mounts(imu=(0.5, 0.4, 1.5), gnss=(-1.67, 0.0, 3.23)), datum=SAPPORO),
     ]
 
 
