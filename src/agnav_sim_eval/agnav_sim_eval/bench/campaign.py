@@ -1,4 +1,5 @@
-"""`agnav bench campaign --runs N --seed S [--json] [--write-docs PATH] [--jobs J] [--duration S] [--out DIR]`:
+"""`agnav bench campaign --runs N --seed S [--json] [--write-docs PATH] [--jobs J] [--duration S] [--out DIR]
+[--sensors thesis|mems]`:
 randomized scenarios through the shipped graph.
 
 Seeds S..S+N-1 each draw a scenario (agnav_sim_eval.sim.random_scenarios: sensor set, receiver, surface, route,
@@ -128,7 +129,7 @@ def markdown(res):
     sets = {k: sum(r["params"][k2] == v for r in rows) for k, (k2, v) in
             {"thesis package (nsm)": ("sensor_set", "thesis"), "MEMS IMU (ins)": ("sensor_set", "mems"),
              "RTK": ("receiver", "RTK"), "DGPS": ("receiver", "DGPS"), "with /gnss/vel": ("gnss_vel", True)}.items()}
-    lines += [f"{res['runs']} runs (seeds {res['seed']}–{res['seed'] + res['runs'] - 1}): "
+    lines += [f"{res['runs']} runs (seeds {res['seed']}–{res['rows'][-1]['seed'] if res['rows'] else res['seed']}): "
               + ", ".join(f"{k} {v}" for k, v in sets.items()) + f"; {res['failed']} failed, {res['no_output']} without output. Wall "
               f"{res['wall_s']:.0f} s with --jobs {res['jobs']} ({res['wall_per_run_s']:.1f} s per run and job; "
               f"{res['vehicle_s_mean']:.0f} s of vehicle time per run on average).", "",
@@ -155,12 +156,16 @@ def markdown(res):
     return "\n".join(lines) + "\n"
 
 
-def run_campaign(runs, seed, jobs=1, drive_s=None, out_dir=None):
+def run_campaign(runs, seed, jobs=1, drive_s=None, out_dir=None, sensors=None):
+    """sensors: only the seeds of S..S+N-1 whose drawn sensor set is this one (None: all)."""
+    from agnav_sim_eval.sim.random_scenarios import draw
+
     start = time.perf_counter()
     with tempfile.TemporaryDirectory(prefix="agnav_campaign_") as tmp:
         work = Path(out_dir) if out_dir else Path(tmp)
         work.mkdir(parents=True, exist_ok=True)
-        seeds = list(range(seed, seed + runs))
+        seeds = [s for s in range(seed, seed + runs) if sensors is None or draw(s)[1]["sensor_set"] == sensors]
+        runs = len(seeds)
         if jobs > 1:
             with ProcessPoolExecutor(jobs, mp_context=multiprocessing.get_context("spawn")) as pool:
                 rows = list(pool.map(run_one, seeds, [drive_s] * runs, [str(work)] * runs))
@@ -186,6 +191,7 @@ def main(argv=None):
     ap.add_argument("--duration", type=float, help="seconds in motion per run (default: drawn, 50-100 s)")
     ap.add_argument("--out", help="keep every bag and recording in this directory (default: a temporary one)")
     ap.add_argument("--json", action="store_true", help="print one JSON object on the last line")
+    ap.add_argument("--sensors", choices=sorted(CONFIGS), help="only the seeds that draw this sensor set")
     docs_option(ap, "campaign.md")
     args = ap.parse_args(argv)
     if args.runs < 1 or args.jobs < 1:
@@ -193,7 +199,7 @@ def main(argv=None):
     if args.seed < REPORT_FROM_SEED:
         print(f"agnav bench campaign: WARNING: seeds below {REPORT_FROM_SEED} are for tuning; these are tuning "
               "results, not a report", file=sys.stderr)
-    res = run_campaign(args.runs, args.seed, args.jobs, args.duration, args.out)
+    res = run_campaign(args.runs, args.seed, args.jobs, args.duration, args.out, args.sensors)
     text = markdown(res)
     print(text)
     if args.write_docs:
