@@ -11,7 +11,7 @@ import math
 import numpy as np
 
 from agnav_fusion.attitude_kf import AttitudeKF
-from agnav_fusion.nav_ekf import IA, IB, IC, IPHI, IV, NavEKF
+from agnav_fusion.nav_ekf import IA, IB, IC, IPHI, IR, IV, NavEKF
 from agnav_fusion.nav_settings import GRAVITY, cross, euler_rates
 
 POSE_XY_YAW, EKF_XY_PHI = np.ix_([0, 1, 5], [0, 1, 5]), np.ix_([0, 1, IPHI], [0, 1, IPHI])
@@ -192,9 +192,11 @@ class AgnavEstimator:
     def _set_course(self, course, var):
         """Heading = course - crab: the crab's variance (and correlation) is added to the course's."""
         ekf = self.ekf
-        ekf.x[IPHI] = math.remainder(course - ekf.x[IC], 2 * math.pi)
-        ekf.P[IPHI, IPHI] = var + ekf.P[IC, IC]
-        ekf.P[IPHI, IC] = ekf.P[IC, IPHI] = -ekf.P[IC, IC]
+        h = ekf.crab_jacobian()
+        crab, crab_var = ekf.crab()
+        ekf.x[IPHI] = math.remainder(course - crab, 2 * math.pi)
+        ekf.P[IPHI, :] = ekf.P[:, IPHI] = -ekf.P[:, IC:IR] @ h
+        ekf.P[IPHI, IPHI] = var + crab_var
 
     def _doppler(self, vel, vel_var):
         """True for a receiver velocity (variance at the velocity_sigma floor), not one from fix differences:
@@ -233,7 +235,7 @@ class AgnavEstimator:
     # ---- outputs --------------------------------------------------------------------------------------
     def crab(self):
         """(crab angle rad, clockwise: course = heading + crab, variance), or None before the EKF starts."""
-        return None if self.ekf.x is None else (float(self.ekf.x[IC]), float(self.ekf.P[IC, IC]))
+        return None if self.ekf.x is None else self.ekf.crab()
 
     def heading_variance(self):
         return float(self.ekf.P[IPHI, IPHI]) if self.ekf.x is not None else math.inf

@@ -2,10 +2,13 @@
 (agnav extension of SPEC §6.3: replaces Kise/drift LSM + dead reckoning with one filter giving covariances).
 
 Thesis conventions: state x = [X east, Y north, phi heading cw from north, b yaw-gyro bias, V speed, A accel,
-BX, BY receiver bias, beta crab angle]; the course over ground is phi + beta (non-holonomic constraint with side
-slip: the vehicle moves along its heading turned by beta), X' = V sin(phi + beta), Y' = V cos(phi + beta) (as
-5.12-5.13), phi' = r - b (r clockwise gyro rate); beta is Gauss-Markov about crab_roll_gain * sin(roll) (a tractor
-slides downhill on a cross slope). Speed: without an accelerometer V' = A + w_V, A' = -A/tau + w (a tractor keeps
+BX, BY receiver bias, beta crab residual, k crab per sin(roll), rho terrain roll]; the course over ground is
+phi + crab, crab = beta + k sin(rho) (non-holonomic constraint with side slip: the vehicle moves along its heading
+turned by the crab), X' = V sin(phi + crab), Y' = V cos(phi + crab) (as 5.12-5.13), phi' = r - b (r clockwise gyro
+rate). A tractor slides downhill on a cross slope: the slide k sin(rho) follows the terrain roll rho (the estimated
+roll through a lag that drops the sway; an input, no variance) with a gain k learnt online (prior crab_roll_gain);
+it is what separates the crab from the heading: a course offset that flips with the roll when the vehicle turns
+on the slope is crab, one that stays is heading. beta, the slide left unexplained, is Gauss-Markov. Speed: without an accelerometer V' = A + w_V, A' = -A/tau + w (a tractor keeps
 its speed); with one V' = a - A + w_V, A being the along-track accelerometer bias (random walk; it also takes the
 pitch error of the gravity compensation). A fix measures (X + BX, Y + BY) + white noise, the bias being the
 receiver's slow (Gauss-Markov) error: the track's shape then carries the heading to the precision of the white part,
@@ -18,8 +21,8 @@ import numpy as np
 
 from agnav_fusion import kalman
 
-IX, IY, IPHI, IB, IV, IA, IBX, IBY, IC = range(9)
-N = 9
+IX, IY, IPHI, IB, IV, IA, IBX, IBY, IC, IK, IR = range(11)
+N = 11
 DIAGN = np.diag_indices(N)
 
 
@@ -33,9 +36,12 @@ class NavEKFSettings:
     accel_noise: float = 0.1       # m/s^2/sqrt(Hz) along-track accelerometer: vibration and sway residuals
     accel_bias_walk: float = 0.005  # m/s^2/sqrt(s) accelerometer bias + gravity-compensation (pitch) error walk
     accel_bias_sigma: float = 0.1  # m/s^2, initial accelerometer bias (MEMS zero-g offset + pitch error)
-    crab_sigma: float = 0.026      # rad, crab (side-slip) angle spread about its roll model (1.5 deg)
+    crab_sigma: float = 0.009      # rad, crab (side-slip) spread the roll model leaves (0.5 deg: draft, toe-in)
     crab_tau: float = 30.0         # s, crab correlation time (slope and soil change slowly)
-    crab_roll_gain: float = 0.0    # crab per sin(roll) (rad): expected downhill slide; 0: no model
+    crab_roll_gain: float = 0.0    # crab per sin(roll) (rad): expected downhill slide, the learnt gain's prior
+    crab_gain_sigma: float = 0.3   # rad, spread of that gain (soil, tyres, load)
+    crab_gain_walk: float = 0.002  # rad/sqrt(s), change of that gain (soil)
+    crab_roll_tau: float = 3.0     # s, lag from the estimated roll to the terrain roll driving the crab (no sway)
     slip_noise: float = 0.005      # m/sqrt(s) unmodelled position motion (slip, sway)
     init_heading_sigma: float = 0.2  # rad, heading from a first course over ground (before the chord)
     init_bias_sigma: float = 0.005  # rad/s
@@ -69,7 +75,7 @@ class NavEKF:
 
     def initialise(self, xy, xy_cov, heading, speed=0.0):
         s = self.settings
-        self.x = np.array([xy[0], xy[1], heading, 0.0, speed, 0.0, 0.0, 0.0, 0.0])
+        self.x = np.array([xy[0], xy[1], heading, 0.0, speed, 0.0, 0.0, 0.0, 0.0, s.crab_roll_gain, 0.0])
         self.P = np.zeros((N, N))
         self.P[:2, :2] = np.asarray(xy_cov) + self.gnss_bias_var * np.eye(2)
         self.P[IBX, IBX] = self.P[IBY, IBY] = self.gnss_bias_var
@@ -77,6 +83,7 @@ class NavEKF:
         a_sigma = s.accel_bias_sigma if self.accel_mode else 0.5
         self.P[IPHI:IBX, IPHI:IBX] = np.diag([s.init_heading_sigma, s.init_bias_sigma, s.init_speed_sigma, a_sigma]) ** 2
         self.P[IC, IC] = s.crab_sigma ** 2
+        self.P[IK, IK] = s.crab_gain_sigma ** 2
 
     def set_accel_mode(self, on):
         """Switch A between the Gauss-Markov acceleration and the accelerometer bias (a new, uncorrelated start)."""
@@ -88,8 +95,17 @@ class NavEKF:
             self.P[IA, :] = self.P[:, IA] = 0.0
             self.P[IA, IA] = self.settings.accel_bias_sigma ** 2 if on else 0.5 ** 2
 
+    def crab_jacobian(self):
+        """d crab / d (beta, k)."""
+        return np.array([1.0, math.sin(self.x[IR])])
+
+    def crab(self):
+        """(crab rad, variance)."""
+        h = self.crab_jacobian()
+        return float(h @ self.x[IC:IR]), float(h @ self.P[IC:IR, IC:IR] @ h)
+
     def course(self):
-        return self.x[IPHI] + self.x[IC]
+        return self.x[IPHI] + self.crab_jacobian() @ self.x[IC:IR]
 
     def reset_position(self, xy, xy_cov):
         """Re-initialise the position (a fix the gate kept refusing): the old position, and what it implied for the
@@ -103,14 +119,15 @@ class NavEKF:
         """Jacobian F of one propagation step at the current state."""
         s, v, c = self.settings, self.x[IV], self.course()
         F = np.eye(N)
-        F[IX, IPHI] = F[IX, IC] = v * math.cos(c) * dt
-        F[IY, IPHI] = F[IY, IC] = -v * math.sin(c) * dt
+        F[IX, IPHI], F[IY, IPHI] = v * math.cos(c) * dt, -v * math.sin(c) * dt
+        F[IX:IPHI, IC:IR] = np.outer(F[IX:IPHI, IPHI], self.crab_jacobian())
         F[IX, IV], F[IY, IV] = math.sin(c) * dt, math.cos(c) * dt
         F[IPHI, IB] = -dt
         F[IV, IA] = -dt if self.accel_mode else dt
         F[IA, IA] = 1.0 if self.accel_mode else math.exp(-dt / s.accel_tau)
         F[IBX, IBX] = F[IBY, IBY] = math.exp(-dt / s.gnss_bias_tau) if s.gnss_bias_tau > 0 else 0.0
         F[IC, IC] = math.exp(-dt / s.crab_tau)
+        F[IR, IR] = math.exp(-dt / s.crab_roll_tau)
         return F
 
     def predict(self, rate, dt, accel=None, roll=0.0):
@@ -126,14 +143,15 @@ class NavEKF:
         x[IV] += ((accel or 0.0) - x[IA]) * dt if self.accel_mode else x[IA] * dt
         x[IA] *= F[IA, IA]
         x[IBX:IC] *= F[IBX, IBX]
-        crab_mean = s.crab_roll_gain * math.sin(roll)
-        x[IC] = crab_mean + F[IC, IC] * (x[IC] - crab_mean)
+        x[IC] *= F[IC, IC]
+        x[IR] = roll + F[IR, IR] * (x[IR] - roll)
         q_bias = self.gnss_bias_var * (1.0 - F[IBX, IBX] ** 2)   # keeps the Gauss-Markov variance stationary
         q_v = s.speed_walk ** 2 + (s.accel_noise ** 2 if self.accel_mode else 0.0)
         q_a = s.accel_bias_walk ** 2 if self.accel_mode else s.jerk_noise ** 2
         P = F @ self.P @ F.T
         P[DIAGN] += (s.slip_noise ** 2 * dt, s.slip_noise ** 2 * dt, s.rate_noise ** 2 * dt, s.bias_walk ** 2 * dt,
-                     q_v * dt, q_a * dt, q_bias, q_bias, s.crab_sigma ** 2 * (1.0 - F[IC, IC] ** 2))
+                     q_v * dt, q_a * dt, q_bias, q_bias, s.crab_sigma ** 2 * (1.0 - F[IC, IC] ** 2),
+                     s.crab_gain_walk ** 2 * dt, 0.0)
         self.P = P
         self.x = x
         if self.log is not None:
@@ -184,8 +202,8 @@ class NavEKF:
         c, v = self.course(), self.x[IV]
         h = np.array([v * math.sin(c), v * math.cos(c)])
         H = np.zeros((2, N))
-        H[0, IPHI] = H[0, IC] = v * math.cos(c)
-        H[1, IPHI] = H[1, IC] = -v * math.sin(c)
+        H[0, IPHI], H[1, IPHI] = v * math.cos(c), -v * math.sin(c)
+        H[:, IC:IR] = np.outer(H[:, IPHI], self.crab_jacobian())
         H[0, IV], H[1, IV] = math.sin(c), math.cos(c)
         y, S, d2 = kalman.innovation(self.x, self.P, np.asarray(v_en, dtype=float), H, R, h=h)
         return y, S, d2, H
