@@ -38,18 +38,19 @@ def run_graph(tmp, config, src, seconds, processes=False):
 
 
 def offline_and_published(config, bag, out):
-    """(t, position, orientation, pose covariance, speed) rows of the offline pipeline's states for `bag` and of the
-    graph's /odometry/filtered in `out`."""
+    """(t, position, orientation, pose covariance, base_link velocity) rows of the offline pipeline's states for
+    `bag` and of the graph's /odometry/filtered in `out`."""
     from agnav_bringup.graph_config import load_config
     from agnav_common.frames import quaternion_from_euler
+    from agnav_fusion.navigation_output import body_velocity
     from agnav_sim_eval.offline import replay as offline_replay
     states, _ = offline_replay(load_config(config), bag)
     graph = read_bag(out, ["/odometry/filtered"])["/odometry/filtered"]
-    offline = np.array([[s.t, *s.position, *quaternion_from_euler(*s.rpy), *s.pose_cov.ravel(), s.speed]
-                        for s in states])
+    offline = np.array([[s.t, *s.position, *quaternion_from_euler(*s.rpy), *s.pose_cov.ravel(),
+                         *body_velocity(s)[:2]] for s in states])
     published = np.array([[t, *(getattr(m.pose.pose.position, k) for k in "xyz"),
                            *(getattr(m.pose.pose.orientation, k) for k in "xyzw"), *m.pose.covariance,
-                           m.twist.twist.linear.x] for t, m in graph])
+                           m.twist.twist.linear.x, m.twist.twist.linear.y] for t, m in graph])
     return offline, published
 
 

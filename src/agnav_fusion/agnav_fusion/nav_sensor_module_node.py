@@ -29,7 +29,7 @@ from scipy.spatial.transform import Rotation
 from sensor_msgs.msg import Imu, NavSatFix
 
 from agnav_fusion.backends import ESTIMATOR_DOC, make_backend, settings_for
-from agnav_fusion.navigation_output import map_datum_message, pose_transforms
+from agnav_fusion.navigation_output import body_velocity, map_datum_message, pose_transforms
 from agnav_fusion.odom_frame import OdomFrame
 from agnav_fusion.front_end import Urgent
 from agnav_fusion.pipeline import NavigationPipeline
@@ -54,7 +54,8 @@ def imu_message(s, frame_id, max_yaw_variance=None):
 
 
 def odometry_message(s, frames):
-    """nav_msgs/Odometry of a module state: pose in map, twist in base_link, both with covariance."""
+    """nav_msgs/Odometry of a module state: pose in map, twist in base_link (side slip in linear.y), both with
+    covariance."""
     odom = Odometry()
     odom.header.stamp = to_stamp(s.t)
     odom.header.frame_id = frames["map"]
@@ -65,9 +66,9 @@ def odometry_message(s, frames):
     q.x, q.y, q.z, q.w = quaternion_from_euler(*s.rpy)
     odom.pose.covariance = s.pose_cov.ravel()
     tw = odom.twist.twist
-    tw.linear.x = float(s.speed)
+    tw.linear.x, tw.linear.y, twist_cov = body_velocity(s)
     tw.angular.x, tw.angular.y, tw.angular.z = (float(v) for v in s.rates)
-    odom.twist.covariance = s.twist_cov.ravel()
+    odom.twist.covariance = twist_cov.ravel()
     return odom
 
 
