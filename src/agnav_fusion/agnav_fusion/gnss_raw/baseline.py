@@ -23,7 +23,8 @@ N_POS = 3
 class BaselineConfig:
     dynamics: str = "kinematic"     # or "static"
     sigma_kinematic: float = 30.0   # m per epoch, position process noise in kinematic mode
-    sigma_amb_rate: float = 1e-4    # m/√s, ambiguity random walk
+    sigma_amb_rate: float = 3e-4    # m/√s, ambiguity random walk (keeps the float ambiguities from growing
+    #                                 overconfident on time-correlated code errors; 1e-4: ratio fails after ~3 min)
     sigma_amb_init: float = 5.0     # m, a fresh ambiguity's σ about DD phase − DD code
     sigma_pos_init: float = 100.0   # m, first epoch's position σ about the initial guess
     ratio_threshold: float = fixing.RATIO_THRESHOLD

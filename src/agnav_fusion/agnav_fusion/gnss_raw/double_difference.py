@@ -22,7 +22,8 @@ SYSTEMS = "GEJC"
 class DDConfig:
     elevation_mask_deg: float = 15.0
     snr_mask_dbhz: float = 35.0
-    sigma_code: float = 0.3     # m, undifferenced zenith-ish σ0 of the pseudorange
+    sigma_code: float = 1.5     # m, undifferenced σ0 of the pseudorange: 0.3 m of epoch noise inflated by ~5 for
+    #                             multipath correlated over ~10 s (the filter takes epochs as independent)
     sigma_phase: float = 0.003  # m, undifferenced σ0 of the carrier phase
 
 

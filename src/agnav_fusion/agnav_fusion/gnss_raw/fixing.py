@@ -1,9 +1,10 @@
-"""Integer ambiguity resolution: cssrlib's modified LAMBDA on the DD ambiguities (cycles), the ratio test, and
+"""Integer ambiguity resolution: LAMBDA (lambda_search) on the DD ambiguities in cycles, the ratio test, and
 the fixed baseline conditioned on the integers (b̌ = b̂ − Q_ba Q_aa⁻¹ (â − ǎ), metres)."""
 from dataclasses import dataclass
 
 import numpy as np
-from cssrlib.mlambda import mlambda
+
+from agnav_fusion.gnss_raw.lambda_search import SearchBudgetExceeded, lambda_ils
 
 RATIO_THRESHOLD = 3.0   # second-best / best squared norm (RTKLIB's default validation threshold)
 MIN_AMBIGUITIES = 4
@@ -25,7 +26,10 @@ def fix(x, P, n_fixed, wavelength, threshold=RATIO_THRESHOLD):
     if len(a) < MIN_AMBIGUITIES:
         return FixResult(False, 0.0, len(a))
     Q_aa = P[n_fixed:, n_fixed:]
-    cands, s, _, _ = mlambda(a / lam, Q_aa / np.outer(lam, lam), ncands=2)
+    try:
+        cands, s = lambda_ils(a / lam, Q_aa / np.outer(lam, lam), ncands=2)
+    except (np.linalg.LinAlgError, SearchBudgetExceeded):
+        return FixResult(False, 0.0, len(a))
     ratio = float(s[1] / s[0]) if s[0] > 0 else float("inf")
     if ratio < threshold:
         return FixResult(False, ratio, len(a))

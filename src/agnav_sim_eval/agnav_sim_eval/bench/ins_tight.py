@@ -1,15 +1,17 @@
 """`agnav bench ins_tight [--json] [--write-docs PATH]`: raw-GNSS double-difference baselines on real data.
 
-First slice of issue 18 (tightly coupled GNSS/INS): the static real pair of MatRTKLIB (Septentrio mosaic-X5
+Issue 18 (tightly coupled GNSS/INS), raw-GNSS slices: the static real pair of MatRTKLIB (Septentrio mosaic-X5
 rover + base, 1 Hz, 301 epochs, GPS L1C/L2W, Galileo E1C/E5aQ, QZSS L1C/L2L, BeiDou B1I/B2bI, 15° elevation
 and 35 dB-Hz masks) through agnav_fusion.gnss_raw: satellite states from the broadcast ephemerides (cssrlib),
-DDs with their correlated covariance, the float EKF (rover position + DD ambiguities in metres) and
-instantaneous integer fixing (modified LAMBDA, ratio ≥ 3) at every epoch. Errors are against the known
+DDs with their correlated covariance (σ_code 1.5 m: multipath correlated over ~10 s), the float EKF (rover
+position + DD ambiguities in metres, ambiguity random walk 3e-4 m/√s) and instantaneous integer fixing (numpy
+LAMBDA, ratio ≥ 3) at every epoch; `first_slice` repeats the runs with the first slice's σ_code 0.3 m / 1e-4. Errors are against the known
 baseline (rover_position.txt − base_position.txt, |b| ≈ 0.99 m); the fix rate sits next to RTKLIB's on the
 same data (rover_rtk.pos: kinematic, L1+L2, instantaneous AR, 301/301 fixed).
 Two runs: 'kinematic' (position re-estimated each epoch, as RTKLIB's run and a moving rover) gives the fix rate,
 the fixed errors and the cost; 'static' (position held, float only) gives the converged float baseline.
-Cost: ms per epoch of satellite states + DDs + EKF + LAMBDA (RINEX parsing excluded), fastest of the runs.
+Cost: ms per epoch of satellite states + DDs + EKF + LAMBDA (RINEX parsing excluded) of the kinematic run;
+`cost_ms_per_epoch_20sat` the same with both receivers cut to the 20 satellites highest at the first epoch.
 """
 import argparse
 import json
@@ -22,7 +24,10 @@ import numpy as np
 from agnav_sim_eval.bench import docs_option, write_docs
 from agnav_fusion.gnss_raw.baseline import BaselineConfig, process
 from agnav_fusion.gnss_raw.geometry import llh_to_ecef, to_enu
-from agnav_fusion.gnss_raw.observations import match_epochs
+from agnav_fusion.gnss_raw.double_difference import DDConfig
+from agnav_fusion.gnss_raw.ephemeris import satellite_states
+from agnav_fusion.gnss_raw.geometry import elevation_azimuth
+from agnav_fusion.gnss_raw.observations import ObsEpoch, match_epochs
 from agnav_fusion.gnss_raw.rinex import read_nav, read_obs
 
 DATA = Path("/work/shared/data/real/gnss_raw/matrtklib_static")
@@ -48,18 +53,45 @@ def _cm(a):
     return round(float(a) * 100, 2)
 
 
+def subset(epoch, sats):
+    """The ObsEpoch restricted to the satellites in `sats`."""
+    rows = [i for i, sid in enumerate(epoch.sats) if sid in sats]
+    return ObsEpoch(epoch.week, epoch.tow, [epoch.sats[i] for i in rows], epoch.code[rows], epoch.phase[rows],
+                    epoch.doppler[rows], epoch.snr[rows], epoch.lli[rows], epoch.wavelength[rows])
+
+
+def highest(pairs, nav, base, count=20):
+    """The `count` satellites (GPS/Galileo/QZSS/BeiDou, seen by both) highest at the first epoch."""
+    rover0, base0 = pairs[0]
+    sv = satellite_states(base0, nav, base)
+    common = [i for i, sid in enumerate(base0.sats) if sv.valid[i] and rover0.row(sid) is not None]
+    el = elevation_azimuth(base, sv.pos[common])[0]
+    return {base0.sats[common[j]] for j in np.argsort(-el)[:count]}
+
+
+def _timed(pairs, nav, base, config):
+    start = time.perf_counter()
+    sols = process(pairs, nav, base, config)
+    return sols, (time.perf_counter() - start) / len(sols) * 1e3
+
+
+def _errors(sols, rover):
+    fixed = np.array([np.linalg.norm(s.fixed_pos - rover) for s in sols if s.fixed])
+    return fixed, np.array([np.linalg.norm(s.float_pos - rover) for s in sols])
+
+
 def measure(data=DATA):
     pairs, nav, base, rover = load(data)
-    runs = {}
-    for mode, fix in (("kinematic", True), ("static", False)):
-        start = time.perf_counter()
-        sols = process(pairs, nav, base, BaselineConfig(dynamics=mode, fix=fix))
-        runs[mode] = (sols, (time.perf_counter() - start) / len(sols) * 1e3)
-    kin, kin_ms = runs["kinematic"]
-    sta, _ = runs["static"]
-    fixed_err = np.array([np.linalg.norm(s.fixed_pos - rover) for s in kin if s.fixed])
-    kin_float = np.array([np.linalg.norm(s.float_pos - rover) for s in kin])
-    sta_float = np.array([np.linalg.norm(s.float_pos - rover) for s in sta])
+    kin, kin_ms = _timed(pairs, nav, base, BaselineConfig(dynamics="kinematic"))
+    sta, _ = _timed(pairs, nav, base, BaselineConfig(dynamics="static", fix=False))
+    fixed_err, kin_float = _errors(kin, rover)
+    sta_float = _errors(sta, rover)[1]
+    sats20 = highest(pairs, nav, base)
+    pairs20 = [(subset(r, sats20), subset(b, sats20)) for r, b in pairs]
+    kin20, ms20 = _timed(pairs20, nav, base, BaselineConfig(dynamics="kinematic"))
+    old = dict(sigma_amb_rate=1e-4, dd=DDConfig(sigma_code=0.3))
+    old_kin = _errors(_timed(pairs, nav, base, BaselineConfig(dynamics="kinematic", **old))[0], rover)
+    old_sta = _errors(_timed(pairs, nav, base, BaselineConfig(dynamics="static", fix=False, **old))[0], rover)[1]
     n_rtk_fixed, n_rtk, rtk_pos = rtklib_solution(data)
     return {
         "epochs": len(pairs),
@@ -67,6 +99,7 @@ def measure(data=DATA):
         "static_float_baseline_err_cm": _cm(sta_float[-1]),
         "static_float_baseline_err_enu_cm": [_cm(v) for v in to_enu(sta[-1].float_pos - rover, rover)],
         "static_float_err_after_60s_cm": _cm(sta_float[60:].max()) if len(sta) > 60 else None,
+        "static_float_err_median_after_60s_cm": _cm(np.median(sta_float[60:])) if len(sta) > 60 else None,
         "kinematic_float_err_median_cm": _cm(np.median(kin_float)),
         "kinematic_float_err_end_cm": _cm(kin_float[-1]),
         "static_fixed_baseline_err_cm": _cm(fixed_err.max()) if fixed_err.size else None,
@@ -79,6 +112,13 @@ def measure(data=DATA):
         "ratio_median": round(float(np.median([s.ratio for s in kin])), 1),
         "dd_per_epoch_mean": round(float(np.mean([s.n_dd for s in kin])), 1),
         "cost_ms_per_epoch": round(kin_ms, 1),
+        "cost_ms_per_epoch_20sat": round(ms20, 1),
+        "dd_per_epoch_20sat": round(float(np.mean([s.n_dd for s in kin20])), 1),
+        "fix_rate_20sat": round(float(np.mean([s.fixed for s in kin20])), 4),
+        "first_slice": {"static_float_baseline_err_cm": _cm(old_sta[-1]),
+                        "static_float_err_median_after_60s_cm": _cm(np.median(old_sta[60:])),
+                        "static_fix_rate": round(len(old_kin[0]) / len(kin), 4),
+                        "static_fixed_baseline_err_cm": _cm(old_kin[0].max()) if old_kin[0].size else None},
         "load_average_1min": round(os.getloadavg()[0], 2),
     }
 
