@@ -23,7 +23,7 @@ from agnav_fusion.ins.frames import FLU_TO_FRD, FastPlane, Mounts, base_link_sta
 from agnav_fusion.nav_settings import NavState
 
 FRD = np.diag(FLU_TO_FRD)   # FLU <-> FRD: flip y and z
-SKIP = ("lever_gnss_frd", "initial_heading", "initial_heading_sigma", "guard.gnss_max_lead")  # TF / REP-103 / ekf
+SKIP = ("lever_gnss_frd", "lever_base_frd", "initial_heading", "initial_heading_sigma", "guard.gnss_max_lead")  # TF / REP-103 / ekf
 
 
 @dataclass
@@ -73,6 +73,7 @@ class InsNavigation:
         """base_link -> gnss_link and -> imu_link translations (base_link FLU, m); starts the filter."""
         self.mounts = Mounts.from_tf(imu_lever, np.eye(3), gnss_lever)
         self.settings.ekf.lever_gnss_frd = tuple(self.mounts.lever_gnss_frd)
+        self.settings.ekf.lever_base_frd = tuple(-self.mounts.lever_imu_frd)
         self.ekf = InsEkf(self.settings.ekf)
 
     def set_plane(self, plane):
@@ -128,8 +129,8 @@ class InsNavigation:
         if vel_enu is not None and self.guard.accept("vel", t, vel_enu, ref=self._imu_clock()):
             if vel_cov is None:
                 vel_cov = np.eye(3) * s.default_vel_sigma ** 2
-            elif np.ndim(vel_cov) == 0:
-                vel_cov = np.eye(3) * vel_cov
+            elif np.ndim(vel_cov) == 0:          # fix-difference velocity: seeds the alignment only
+                vel_cov, g.vel_from_fixes = np.eye(3) * vel_cov, True
             else:
                 vel_cov = self.guard.velocity_covariance(vel_cov, s.min_vel_sigma ** 2, s.default_vel_sigma ** 2)
             if vel_cov is not None:
@@ -163,7 +164,7 @@ class InsNavigation:
             return None
         outage = self.ekf.gnss_age() > self.settings.gnss_timeout
         return NavState(b.t, b.position, b.rpy, b.pose_cov, float(b.velocity[0]), b.rates, b.twist_cov,
-                        True, True, outage)
+                        True, True, outage, sol.crab, sol.crab_var)
 
     def health(self):
         """Filter health for the diagnostics: alignment, mode, NIS means, counts, GNSS age, heading sigma."""

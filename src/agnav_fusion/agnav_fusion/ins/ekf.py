@@ -4,6 +4,9 @@
 (Euler F, Q = U dt), IMU gaps bridged in sub-steps with unknown-motion noise, in-motion alignment from an unknown heading (γ/β), GNSS latency compensation
 (solution history, fixes applied against the INS state at their epoch), chi-square innovation
 gating, Joseph-form update with closed-loop correction, outage coasting and health statistics.
+[IMPL] A non-holonomic constraint with an augmented crab state (`constraints`) makes the heading observable on
+straight runs and bounds outage drift; fix-difference velocities only seed the in-motion alignment (they lag and
+repeat the fixes); a filter whose fixes stay rejected re-aligns from them.
 """
 import math
 from collections import deque
@@ -12,6 +15,7 @@ import numpy as np
 from scipy.stats import chi2
 
 from . import earth, error_model as em, feedback, quaternion
+from .constraints import CRAB, NonHolonomic
 from .lever_arm import antenna_to_imu_position
 from .measurements import ENU_TO_NED, GnssPosition, GnssVelocity, Snapshot, c_axes, ned_to_c
 from .mechanization import T, InsState, Mechanization, c_cbar_ned, roll_pitch_from_accel
@@ -30,6 +34,11 @@ class InsEkf:
         self.mech = None
         self.p = None
         self.psd = self.s.error.psd()
+        self.nhc = NonHolonomic(self.s.nhc, self.s.lever_base_frd) if self.s.nhc.enabled else None
+        if self.nhc is not None:
+            self.psd = np.append(self.psd, 0.0)   # crab noise: roll-dependent, added in _propagate_covariance
+        self.crab = 0.0
+        self._nhc_t = -math.inf
         self.models = [GnssPosition(self.s.lever_gnss_frd), GnssVelocity(self.s.lever_gnss_frd)]
         self.t = None
         self.omega_b = np.zeros(3)
@@ -150,7 +159,8 @@ class InsEkf:
         return NavSolution(self.t, lat, st.lon, st.h, cn @ (T @ st.v), roll, pitch,
                            math.remainder(yaw_c - alpha, 2.0 * math.pi), self.omega_b.copy(), cn @ c_bc, pos,
                            m @ self.p[V3_BLOCK] @ m.T,
-                           np.array([tilt, tilt, self.p[em.GAMMA, em.GAMMA]]), np.diag(self.p)[em.BG].copy())
+                           np.array([tilt, tilt, self.p[em.GAMMA, em.GAMMA]]), np.diag(self.p)[em.BG].copy(),
+                           self.crab, self.p[CRAB, CRAB] if self.nhc is not None else math.inf)
 
     def augment(self, p_new, p_cross=None):
         """Append error states (e.g. ambiguities, clock drift for tight coupling, §7.9) with their covariance."""
@@ -208,6 +218,10 @@ class InsEkf:
             v = ENU_TO_NED @ np.asarray(g.vel_enu)
             speed = math.hypot(v[0], v[1])
             if speed > self.s.align_speed:      # travel along the (guessed) body x axis
+                if heading_var >= 1.0 and self.s.align_from_course:     # unknown heading: the course over ground
+                    heading = math.atan2(v[1], v[0])
+                    heading_var = (self.s.align_fix_course_sigma if g.vel_from_fixes else
+                                   self.s.align_course_sigma) ** 2
                 v_ned = np.array([speed * math.cos(heading), speed * math.sin(heading), v[2]])
         if heading_var >= 1.0 and not v_ned.any():
             return False                        # unknown heading: wait until driving (in-motion alignment)
@@ -216,6 +230,7 @@ class InsEkf:
         lat, lon, h = antenna_to_imu_position(g.lat, g.lon, g.alt, np.asarray(self.s.lever_gnss_frd), c_b_ned)
         self.mech = Mechanization(InsState.from_geodetic(lat, lon, h, roll, pitch, heading, v_ned))
         self.p = np.diag(self._initial_variances(g, heading_var))
+        self.crab = 0.0
         self._f = None
         self._history.clear()
         self._snapshot()
@@ -236,6 +251,8 @@ class InsEkf:
             var[em.GAMMA], var[em.BETA] = 1.0, 2.0
         else:
             var[em.GAMMA], var[em.BETA] = heading_var, heading_var ** 2 / 2
+        if self.nhc is not None:
+            var = np.append(var, s.nhc.crab_var(0.0))
         return var
 
     def _propagate(self, gyro, accel, dt):
@@ -249,6 +266,9 @@ class InsEkf:
         if self.stats["imu"] % 1000 == 0:
             mech.renormalize()
         self._snapshot()
+        if self.nhc is not None and self.t - self._nhc_t >= self.s.nhc.interval:
+            self._nhc_t = self.t
+            self._nhc_update()
 
     def _propagate_covariance(self):
         """P <- Φ P Φ^T + U Δt with Φ = I + F Δt (5-9-4, 5-6-2) over the accumulated interval."""
@@ -259,8 +279,14 @@ class InsEkf:
         f = em.dynamics(self.s.error, st.v, a_c, rho, omega, em.body_to_c(c_bc), st.lat, st.h, st.alpha)
         phi = np.eye(self.n_states)
         phi[:em.N_STATES, :em.N_STATES] += f * self._cov_dt
+        if self.nhc is not None:            # crab: first-order Gauss-Markov, steady sigma from the roll
+            a = min(self._cov_dt / self.s.nhc.crab_tau, 1.0)
+            phi[CRAB, CRAB] = 1.0 - a
+            self.crab *= 1.0 - a
         self.p = phi @ self.p @ phi.T
         self.p[np.diag_indices_from(self.p)] += self.psd * self._cov_dt
+        if self.nhc is not None:
+            self.p[CRAB, CRAB] += 2.0 * a * self.s.nhc.crab_var(st.euler()[0])
         if self._gap_var is not None:
             self.p[np.diag_indices_from(self.p)] += self._gap_var
             self._gap_var = None
@@ -305,35 +331,54 @@ class InsEkf:
                 self._update(g)
         self._pending = keep
 
+    def _gated(self, lin):
+        """True (and counted) if the innovation passes the chi-square gate."""
+        s = lin.h @ self.p @ lin.h.T + lin.r
+        nis = float(lin.z @ np.linalg.solve(s, lin.z))
+        if nis > self._gate(len(lin.z)):
+            self._reject(lin.name)
+            return False
+        n, total = self.stats["nis"].get(lin.name, (0, 0.0))
+        self.stats["nis"][lin.name] = (n + 1, total + nis)
+        self._stat("accepted", lin.name)
+        return True
+
+    def _nhc_update(self):
+        self._propagate_covariance()
+        st = self.mech.state
+        lin = self.nhc.linearize(st.c_b_cbar(), st.v, self.omega_b, self.crab, self.n_states)
+        if self._gated(lin):
+            self._fuse([lin])
+
     def _update(self, g):
         self._propagate_covariance()
         snap = self._snapshot_at(g.t)
         alpha = self.mech.state.alpha
         hv = self.p[em.GAMMA, em.GAMMA]
-        models = self.models if g.vel_enu is not None else self.models[:1]
-        accepted = []
-        for model in models:
-            lin = model.linearize(snap, alpha, g, hv, self.n_states)
-            s = lin.h @ self.p @ lin.h.T + lin.r
-            nis = float(lin.z @ np.linalg.solve(s, lin.z))
-            if nis > self._gate(len(lin.z)):
-                self._reject(lin.name)
-                continue
-            n, total = self.stats["nis"].get(lin.name, (0, 0.0))
-            self.stats["nis"][lin.name] = (n + 1, total + nis)
-            self._stat("accepted", lin.name)
-            accepted.append(lin)
-        if not accepted:
+        use_vel = g.vel_enu is not None and not g.vel_from_fixes
+        models = self.models if use_vel else self.models[:1]
+        accepted = [lin for lin in (m.linearize(snap, alpha, g, hv, self.n_states) for m in models) if self._gated(lin)]
+        position = any(lin.name == self.models[0].name for lin in accepted)
+        if position:
+            self._first_reject_t = None
+        else:       # fixes locked out (a velocity may still pass): after reinit_after, re-align from the fixes
             self._first_reject_t = self._first_reject_t if self._first_reject_t is not None else g.t
             if g.t - self._first_reject_t > self.s.reinit_after:
                 self._reject("reinitialized")
                 self._first_reject_t = None
-                self._initialize(g, self.mech.state.euler()[2], self.p[em.GAMMA, em.GAMMA])
+                heading = self.mech.state.euler()[2]
+                if not self._initialize(g, heading, 4.0):     # moving: from the course, else the heading kept
+                    self._initialize(g, heading, max(hv, self.s.align_fix_course_sigma ** 2))
+                return
+        if not accepted:
             return
-        self._first_reject_t = None
         self._last_accept_t = self.t
-        if accepted[0].name == self.models[0].name:
+        if position:
             self._fix_drift_cov = self.s.gnss_correlated_fraction * np.asarray(g.pos_cov_enu, dtype=float)
+        self._fuse(accepted)
+
+    def _fuse(self, accepted):
+        """Joseph-form update with the stacked accepted observations, fed back."""
         z = np.concatenate([m.z for m in accepted])
         h = np.vstack([m.h for m in accepted])
         r = np.zeros((len(z), len(z)))
@@ -352,6 +397,8 @@ class InsEkf:
         st = self.mech.state
         before = np.array([st.lat, st.lon, st.h, *st.v_ned()])
         feedback.apply(self.mech, x)
+        if self.nhc is not None:
+            self.crab -= x[CRAB]
         after = np.array([st.lat, st.lon, st.h, *st.v_ned()])
         self._corr += after - before
         j = feedback.azimuth_reset_jacobian(x[em.GAMMA], x[em.BETA], self.n_states)

@@ -29,6 +29,7 @@ class GnssSample:
     vel_enu: np.ndarray = None  # m/s, or None
     vel_cov_enu: np.ndarray = None
     fix_type: int = 4
+    vel_from_fixes: bool = False  # velocity differenced from fixes (lags; repeats the fixes' information)
 
 
 @dataclass

@@ -5,6 +5,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from . import error_model as em
+from .constraints import NhcSettings
 
 
 @dataclass
@@ -13,6 +14,8 @@ class InsEkfSettings:
 
     error: em.ErrorModelSettings = field(default_factory=em.ErrorModelSettings)
     lever_gnss_frd: tuple = (0.0, 0.0, 0.0)    # IMU -> antenna in body FRD [m]
+    lever_base_frd: tuple = (0.0, 0.0, 0.0)    # IMU -> base_link (non-holonomic point) in body FRD [m]
+    nhc: NhcSettings = field(default_factory=NhcSettings)
     initial_heading: float = 0.0               # best guess, clockwise from north [rad]
     initial_heading_sigma: float = math.inf    # inf: unknown heading (γ/β span the full circle)
     tilt_sigma: float = math.radians(2.0)      # rad, initial roll/pitch from accelerometers while driving
@@ -21,9 +24,12 @@ class InsEkfSettings:
     gyro_bias_sigma0: float = math.radians(0.2)  # rad/s, initial gyro bias
     level_window: float = 1.0                  # s of accelerometer averaging for the initial roll/pitch
     align_speed: float = 0.5                   # m/s, moving: initial velocity along the body x axis
+    align_from_course: bool = True             # unknown heading: start from the GNSS course (else the guess)
+    align_course_sigma: float = math.radians(5.0)    # rad, course of a Doppler velocity vs heading (crab, noise)
+    align_fix_course_sigma: float = math.radians(30.0)  # rad, course of a fix-difference velocity (lags in turns)
     aligned_heading_sigma: float = math.radians(1.0)  # rad, heading sigma below which the filter is aligned
     gate_probability: float = 0.9999           # chi-square innovation gate
-    reinit_after: float = 10.0                 # s of rejected GNSS, then the filter reinitialises
+    reinit_after: float = 5.0                  # s of rejected GNSS, then the filter reinitialises
     history: float = 2.0                       # s, latency compensation window
     gap_accel_sigma: float = 1.0               # m/s^2, unknown acceleration while IMU samples are missing
     gap_rate_sigma: float = 0.1                # rad/s, unknown rate (e.g. a turn begun) over an IMU gap
@@ -53,3 +59,5 @@ class NavSolution:
     vel_cov_enu: np.ndarray
     att_var: np.ndarray          # roll, pitch, heading [rad^2]
     gyro_bias_var: np.ndarray    # FRD gyro bias estimate variances [(rad/s)^2]
+    crab: float = 0.0            # rad, base_link side slip (+ moving to the right of the body x axis)
+    crab_var: float = math.inf   # rad^2 (inf: not estimated)

@@ -1,0 +1,127 @@
+"""GNSS/INS vehicle constraints and alignment (issue 15 item 4): non-holonomic constraint with crab, heading on
+straight runs, alignment from the GNSS course and from fix differences, outage drift, re-alignment after a
+divergence."""
+import copy
+import math
+
+import numpy as np
+import pytest
+
+from agnav_fusion.ins import feedback, synthetic as sy
+from agnav_fusion.ins import error_model as em
+from agnav_fusion.ins.constraints import CRAB, NhcSettings, NonHolonomic
+from agnav_fusion.ins.ekf import InsEkf, InsEkfSettings
+from agnav_fusion.ins.mechanization import InsState, Mechanization
+
+LEVER = (-1.67, 0.0, -3.23)    # IMU -> antenna, FRD [m]: the thesis' fast run
+
+
+def test_nhc_jacobian_matches_the_feedback_correction():
+    """H x = h(computed) - h(computed corrected by x) for small velocity, tilt, azimuth and crab errors."""
+    st = InsState.from_geodetic(0.75, 2.4, 30.0, 0.05, -0.08, 2.2, (1.5, -3.0, 0.2))
+    mech = Mechanization(st)
+    omega = np.array([0.02, -0.03, 0.15])
+    nhc = NonHolonomic(NhcSettings(), (-0.8, 0.1, 1.2))
+    crab = 0.01
+    lin = nhc.linearize(st.c_b_cbar(), st.v, omega, crab, em.N_STATES + 1)
+    for i, step in [(em.VX, 0.01), (em.VY, 0.01), (em.VZ, 0.01), (em.TX, 1e-4), (em.TY, 1e-4), (em.GAMMA, 1e-4),
+                    (CRAB, 1e-4)]:
+        x = np.zeros(em.N_STATES + 1)
+        x[i] = step
+        m = copy.deepcopy(mech)
+        feedback.apply(m, x)
+        true = nhc.linearize(m.state.c_b_cbar(), m.state.v, omega, crab - x[CRAB], em.N_STATES + 1)
+        np.testing.assert_allclose(lin.z - true.z, lin.h[:, i] * step, atol=2e-3 * step, err_msg=str(i))
+
+
+def _straight(seed, speed=4.3, duration=60.0, grade=sy.RTK_5HZ, sway_deg=1.0):
+    """Start from rest, then a straight at speed with tilled-field sway; MEMS IMU."""
+    segs = [(2.0, 0.0, 0.0), (speed / 1.0, 1.0, 0.0), (duration, 0.0, 0.0)]
+    sw = math.radians(sway_deg)
+    traj = sy.drive(segs, heading0=0.7, tilt=lambda t: (sw * math.sin(2.1 * t) + 0.5 * sw * math.sin(5.3 * t + 1),
+                                                         0.6 * sw * math.sin(1.7 * t + 2)))
+    gyro, accel = sy.ideal_imu(traj)
+    rng = np.random.default_rng(seed)
+    g, a, _, _ = sy.MemsGrade().corrupt(gyro, accel, 0.01, rng)
+    return traj, g, a, sy.gnss_samples(traj, gyro, LEVER, grade, rng)
+
+
+@pytest.mark.parametrize("nhc", [True, False])
+def test_heading_observable_on_a_fast_straight_run(nhc):
+    traj, g, a, gnss = _straight(11)
+    s = InsEkfSettings(lever_gnss_frd=LEVER, nhc=NhcSettings(enabled=nhc))
+    ekf = InsEkf(s)
+    err = sy.run_ins(ekf, traj, g, a, gnss)
+    late = err.t > 30.0
+    heading_rms = math.degrees(np.sqrt(np.mean(err.att[late, 2] ** 2)))
+    if nhc:
+        assert heading_rms < 0.3
+        assert np.all(np.abs(err.att[late, 2]) < 3.0 * err.heading_sigma[late])
+        assert np.sqrt(np.mean(np.sum(err.pos[late, :2] ** 2, axis=1))) < 0.03
+    else:
+        assert heading_rms > 0.3            # without the constraint the heading is barely observable here
+
+
+def test_fix_difference_velocity_seeds_the_alignment_only():
+    traj, g, a, gnss = _straight(12, speed=2.0)
+    vel = [sample.vel_enu for _, sample in gnss]
+    for k, (_, sample) in enumerate(gnss):  # a receiver without Doppler: fix-difference velocities lag (1 s)
+        sample.vel_enu = vel[max(k - 5, 0)]
+        sample.vel_from_fixes = True
+    ekf = InsEkf(InsEkfSettings(lever_gnss_frd=LEVER))
+    err = sy.run_ins(ekf, traj, g, a, gnss)
+    assert "velocity" not in ekf.stats["accepted"]
+    assert abs(math.degrees(err.att[0, 2])) < 30.0          # started from the course
+    late = err.t > 40.0
+    assert np.degrees(np.abs(err.att[late, 2])).max() < 1.0
+    assert np.sqrt(np.mean(np.sum(err.pos[late, :2] ** 2, axis=1))) < 0.05
+
+
+def test_dgps_in_motion_alignment_within_30_s():
+    traj = sy.field_drive(duration=90.0, speed=1.5, leg=30.0, heading0=-2.0)
+    gyro, accel = sy.ideal_imu(traj)
+    rng = np.random.default_rng(13)
+    g, a, _, _ = sy.MemsGrade().corrupt(gyro, accel, 0.01, rng)
+    gnss = sy.gnss_samples(traj, gyro, LEVER, sy.DGPS_1HZ, rng)
+    err = sy.run_ins(InsEkf(InsEkfSettings(lever_gnss_frd=LEVER)), traj, g, a, gnss)
+    start = traj.t[np.argmax(np.linalg.norm(traj.v_ned, axis=1) > 0.5)]
+    after = err.t > start + 30.0           # DGPS 1 Hz velocity: 1.9 deg of course noise per epoch at 1.5 m/s
+    assert np.degrees(np.abs(err.att[after, 2])).max() < 2.0
+    assert math.degrees(np.sqrt(np.mean(err.att[after, 2] ** 2))) < 1.0
+    assert np.all(np.abs(err.att[after, 2]) < 3.0 * err.heading_sigma[after])
+
+
+def test_nhc_bounds_outage_drift():
+    traj = sy.field_drive(duration=100.0, speed=2.0, leg=30.0, heading0=1.0)
+    gyro, accel = sy.ideal_imu(traj)
+    drift, sigma = {}, {}
+    for nhc in (True, False):
+        rng = np.random.default_rng(14)
+        g, a, _, _ = sy.MemsGrade().corrupt(gyro, accel, 0.01, rng)
+        gnss = sy.gnss_samples(traj, gyro, LEVER, sy.RTK_5HZ, rng)
+        ekf = InsEkf(InsEkfSettings(lever_gnss_frd=LEVER, nhc=NhcSettings(enabled=nhc)))
+        err = sy.run_ins(ekf, traj, g, a, gnss, outages=[(60.0, 90.0)])
+        inside = (err.t > 60.2) & (err.t < 90.0)
+        e = np.linalg.norm(err.pos[inside, :2], axis=1)
+        drift[nhc], sigma[nhc] = e.max(), err.pos_sigma[inside][-1]
+        assert np.all(e < 3.0 * err.pos_sigma[inside])           # honest while coasting
+    assert drift[True] < 1.5                                      # issue 15: 30 s outage <= 1.5 m
+    assert sigma[True] < 0.3 * sigma[False]                       # the constraint bounds the growth
+
+
+def test_realigns_after_fixes_stay_rejected():
+    """A 30 m jump that persists (a new correction source) is gated, then the filter re-aligns to it."""
+    traj = sy.field_drive(duration=100.0, speed=2.0, leg=30.0, heading0=1.0)
+    gyro, accel = sy.ideal_imu(traj)
+    rng = np.random.default_rng(15)
+    g, a, _, _ = sy.MemsGrade().corrupt(gyro, accel, 0.01, rng)
+    gnss = sy.gnss_samples(traj, gyro, LEVER, sy.RTK_5HZ, rng)
+    for _, sample in gnss:
+        if sample.t >= 40.0:
+            sample.lat += 30.0 / 6.37e6
+    ekf = InsEkf(InsEkfSettings(lever_gnss_frd=LEVER))
+    err = sy.run_ins(ekf, traj, g, a, gnss)
+    assert ekf.stats["rejected"].get("reinitialized", 0) >= 1
+    late = err.t > 60.0
+    assert np.linalg.norm(err.pos[late, :2] - [30.0, 0.0], axis=1).max() < 0.1
+    assert np.degrees(np.abs(err.att[late, 2])).max() < 1.0
