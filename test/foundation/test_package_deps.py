@@ -18,9 +18,9 @@ IMPORT_KEYS = {
     "rosbags": "python3-rosbags-pip", "pyubx2": "python3-pyubx2-pip", "ahrs": "python3-ahrs-pip",
     # not in rosdistro yet (NO_UPSTREAM_KEY): pip-style keys, skipped by the README's rosdep command
     "pygeomag": "python3-pygeomag-pip", "pyrtklib": "python3-pyrtklib-pip", "imufusion": "python3-imufusion-pip",
-    "cssrlib": "python3-cssrlib-pip",
+    "cssrlib": "python3-cssrlib-pip", "pyrtcm": "python3-pyrtcm-pip",
 }
-NO_UPSTREAM_KEY = {"pygeomag", "pyrtklib", "imufusion", "cssrlib"}
+NO_UPSTREAM_KEY = {"pygeomag", "pyrtklib", "imufusion", "cssrlib", "pyrtcm"}
 # ROS packages whose Python module is the package (and rosdep key) name
 ROS_MODULES = {"rclpy", "rcl_interfaces", "builtin_interfaces", "std_srvs", "launch", "launch_ros"}
 # keys a package needs without importing them: run-time executables and interface runtime
