@@ -11,6 +11,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from agnav_fusion import kalman
 from agnav_fusion.gnss_raw import fixing
 from agnav_fusion.gnss_raw.ambiguities import reindex
 from agnav_fusion.gnss_raw.double_difference import DDConfig, form_double_differences
@@ -90,15 +91,12 @@ class BaselineFilter:
             H[:m, :N_POS], H[m:, :N_POS] = G, G
             H[m:, N_POS:] = np.eye(m)
             pred = np.concatenate([h, h + x[N_POS:]])
-            S = H @ P0 @ H.T + R
-            K = np.linalg.solve(S, H @ P0).T
-            x_new = x0 + K @ (z - pred - H @ (x0 - x))
+            x_new, P = kalman.update(x0, P0, z - pred - H @ (x0 - x), H @ P0 @ H.T + R, H, R)
             moved = np.linalg.norm(x_new[:N_POS] - x[:N_POS])
             x = x_new
             if moved < 1e-3:
                 break
-        I_KH = np.eye(len(x)) - K @ H
-        self.x, self.P = x, I_KH @ P0 @ I_KH.T + K @ R @ K.T     # Joseph form
+        self.x, self.P = x, P
         return z - pred
 
     def update(self, dd, time):
