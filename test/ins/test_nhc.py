@@ -125,3 +125,57 @@ def test_realigns_after_fixes_stay_rejected():
     late = err.t > 60.0
     assert np.linalg.norm(err.pos[late, :2] - [30.0, 0.0], axis=1).max() < 0.1
     assert np.degrees(np.abs(err.att[late, 2])).max() < 1.0
+
+
+@pytest.mark.parametrize("heading", [0.3, -2.5])
+def test_heading_from_course_removes_the_antenna_sway(heading):
+    from agnav_fusion.ins.lever_arm import heading_from_course
+    from agnav_fusion.ins.synthetic import dcm_from_euler
+    roll, pitch, lever = 0.06, -0.04, np.array([-0.3, 0.25, -2.9])       # base_link -> antenna, FRD
+    omega = np.array([0.25, -0.1, 0.05])                                  # rough-road sway
+    c = dcm_from_euler(roll, pitch, heading)
+    v = c @ (np.array([0.8, 0.0, 0.0]) + np.cross(omega, lever))
+    assert abs(math.degrees(math.atan2(v[1], v[0]) - heading)) > 20.0   # the raw course is far off
+    assert heading_from_course(v, lever, omega, roll, pitch) == pytest.approx(heading, abs=1e-9)
+    assert heading_from_course(0.1 * v, lever, omega, roll, pitch) is None   # all sway: no course
+
+
+def test_float_to_fixed_is_accepted_at_once():
+    """RTK float (30 cm drifting error, honest covariance) for 15 s, then fixed again: no lock-out, no re-alignment."""
+    traj = sy.field_drive(duration=80.0, speed=2.0, leg=30.0, heading0=1.0)
+    gyro, accel = sy.ideal_imu(traj)
+    rng = np.random.default_rng(16)
+    g, a, _, _ = sy.MemsGrade().corrupt(gyro, accel, 0.01, rng)
+    gnss = sy.gnss_samples(traj, gyro, LEVER, sy.RTK_5HZ, rng)
+    offset = np.array([0.3, -0.25])
+    for _, sample in gnss:
+        if 30.0 <= sample.t < 45.0:
+            offset = offset + rng.normal(0.0, 0.01, 2)
+            sample.lat += offset[0] / 6.37e6
+            sample.lon += offset[1] / (6.37e6 * math.cos(sample.lat))
+            sample.pos_cov_enu = sample.pos_cov_enu + np.diag([0.3 ** 2, 0.3 ** 2, 0.6 ** 2])
+    ekf = InsEkf(InsEkfSettings(lever_gnss_frd=LEVER))
+    err = sy.run_ins(ekf, traj, g, a, gnss)
+    assert ekf.stats["rejected"].get("position", 0) <= 2
+    assert ekf.stats["rejected"].get("reinitialized", 0) == 0
+    back = err.t > 47.0
+    assert np.linalg.norm(err.pos[back, :2], axis=1).max() < 0.05
+    inside = (err.t > 30.0) & (err.t < 45.0)
+    assert np.all(err.pos_nees[inside] < 30.0)
+
+
+def test_aligns_from_its_own_fix_track_without_any_velocity():
+    """No velocity with the fixes (10 Hz fixes, slow: no 2 m baseline in the front end's short history)."""
+    traj = sy.field_drive(duration=80.0, speed=0.6, leg=15.0, heading0=-1.0)
+    gyro, accel = sy.ideal_imu(traj)
+    rng = np.random.default_rng(17)
+    g, a, _, _ = sy.MemsGrade().corrupt(gyro, accel, 0.01, rng)
+    gnss = sy.gnss_samples(traj, gyro, LEVER, sy.GnssGrade(rate=10.0), rng)
+    for _, sample in gnss:
+        sample.vel_enu = sample.vel_cov_enu = None
+    ekf = InsEkf(InsEkfSettings(lever_gnss_frd=LEVER))
+    err = sy.run_ins(ekf, traj, g, a, gnss)
+    assert err.t[0] < 10.0                                           # aligned after ~2 m of travel
+    late = err.t > 40.0
+    assert math.degrees(np.sqrt(np.mean(err.att[late, 2] ** 2))) < 1.0
+    assert np.all(np.abs(err.att[late, 2]) < 3.0 * err.heading_sigma[late])

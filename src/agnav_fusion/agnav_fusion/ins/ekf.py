@@ -16,9 +16,10 @@ from scipy.stats import chi2
 
 from . import earth, error_model as em, feedback, quaternion
 from .constraints import CRAB, NonHolonomic
-from .lever_arm import antenna_to_imu_position
+from .history import SolutionHistory
+from .alignment import FixTrack, initial_state, initial_variances
 from .measurements import ENU_TO_NED, GnssPosition, GnssVelocity, Snapshot, c_axes, ned_to_c
-from .mechanization import T, InsState, Mechanization, c_cbar_ned, roll_pitch_from_accel
+from .mechanization import T, Mechanization, c_cbar_ned
 from .settings import InsEkfSettings, NavSolution  # noqa: F401 (re-exported)
 
 UNINITIALIZED, ALIGNING, ALIGNED = "uninitialized", "aligning", "aligned"
@@ -49,12 +50,14 @@ class InsEkf:
         self._cov_dt = 0.0
         self._f = None
         self._level = deque()
-        self._history = deque()
+        self._fix_track = FixTrack()
+        self._history = SolutionHistory(self.s.history)
         self._pending = []
         self._gates = {}
         self._corr = np.zeros(6)          # accumulated corrections (lat, lon, h, v_ned)
         self._fix_drift_cov = np.zeros((3, 3))  # slowly drifting part of the latest fused fix's covariance (ENU)
         self._last_gnss_t = None
+        self._fix_var_h = 0.0             # horizontal variance per axis of the previous fix [m^2]
         self._last_accept_t = None
         self._first_reject_t = None
         self.stats = {"imu": 0, "gnss": 0, "accepted": {}, "rejected": {}, "bridged": {}, "nis": {}}
@@ -97,7 +100,7 @@ class InsEkf:
         t0, dt = self.t, None if self.t is None else t - self.t
         self.last_gap = 0.0
         self.stats["imu"] += 1
-        self._level.append((t, accel))
+        self._level.append((t, accel, gyro))
         while self._level[0][0] < t - self.s.level_window:
             self._level.popleft()
         nominal = self._nominal_dt(dt)
@@ -135,6 +138,10 @@ class InsEkf:
         if g.vel_enu is not None and not (np.all(np.isfinite(g.vel_enu)) and np.all(np.isfinite(g.vel_cov_enu))
                                           and np.all(np.diag(g.vel_cov_enu) > 0)):
             g.vel_enu = None
+        if g.vel_enu is None:       # the INS's own fix differences: alignment only (ignored by the updates)
+            vel = self._fix_track.velocity(g)
+            if vel is not None:
+                g.vel_enu, g.vel_cov_enu, g.vel_from_fixes = vel[0], vel[1], True
         self._last_gnss_t = g.t
         self.stats["gnss"] += 1
         self._pending.append(g)
@@ -161,17 +168,6 @@ class InsEkf:
                            m @ self.p[V3_BLOCK] @ m.T,
                            np.array([tilt, tilt, self.p[em.GAMMA, em.GAMMA]]), np.diag(self.p)[em.BG].copy(),
                            self.crab, self.p[CRAB, CRAB] if self.nhc is not None else math.inf)
-
-    def augment(self, p_new, p_cross=None):
-        """Append error states (e.g. ambiguities, clock drift for tight coupling, §7.9) with their covariance."""
-        k = p_new.shape[0]
-        n = self.n_states
-        p = np.zeros((n + k, n + k))
-        p[:n, :n], p[n:, n:] = self.p, p_new
-        if p_cross is not None:
-            p[n:, :n], p[:n, n:] = p_cross, p_cross.T
-        self.p = p
-        self.psd = np.concatenate([self.psd, np.zeros(k)])
 
     def health(self):
         """Filter health for diagnostics: alignment, NIS means, counts, GNSS age, 1-sigma errors."""
@@ -210,50 +206,18 @@ class InsEkf:
         return self._dt
 
     def _initialize(self, g, heading, heading_var):
-        """Level from the accelerometers, position/velocity from the fix, heading from the guess."""
-        if len(self._level) < 2:
+        """Initial state at fix g (alignment.initial_state); False: not yet (standing with an unknown heading)."""
+        init = initial_state(self.s, g, self._level, heading, heading_var,
+                             self.mech.gyro_bias if self.mech else np.zeros(3))
+        if init is None:
             return False
-        v_ned = np.zeros(3)
-        if g.vel_enu is not None:
-            v = ENU_TO_NED @ np.asarray(g.vel_enu)
-            speed = math.hypot(v[0], v[1])
-            if speed > self.s.align_speed:      # travel along the (guessed) body x axis
-                if heading_var >= 1.0 and self.s.align_from_course:     # unknown heading: the course over ground
-                    heading = math.atan2(v[1], v[0])
-                    heading_var = (self.s.align_fix_course_sigma if g.vel_from_fixes else
-                                   self.s.align_course_sigma) ** 2
-                v_ned = np.array([speed * math.cos(heading), speed * math.sin(heading), v[2]])
-        if heading_var >= 1.0 and not v_ned.any():
-            return False                        # unknown heading: wait until driving (in-motion alignment)
-        roll, pitch = roll_pitch_from_accel(np.mean([a for _, a in self._level], axis=0))
-        c_b_ned = InsState.from_geodetic(g.lat, g.lon, g.alt, roll, pitch, heading).c_b_ned()
-        lat, lon, h = antenna_to_imu_position(g.lat, g.lon, g.alt, np.asarray(self.s.lever_gnss_frd), c_b_ned)
-        self.mech = Mechanization(InsState.from_geodetic(lat, lon, h, roll, pitch, heading, v_ned))
-        self.p = np.diag(self._initial_variances(g, heading_var))
+        self.mech = Mechanization(init[0])
+        self.p = np.diag(initial_variances(self.s, g, init[1], self.nhc is not None))
         self.crab = 0.0
         self._f = None
         self._history.clear()
         self._snapshot()
         return True
-
-    def _initial_variances(self, g, heading_var):
-        s = self.s
-        r = earth.mean_radius(g.lat) + g.alt
-        lever = float(np.linalg.norm(s.lever_gnss_frd[:2]))
-        var = np.zeros(em.N_STATES)
-        var[[em.RX, em.RY]] = (np.trace(g.pos_cov_enu[:2, :2]) / 2 + lever ** 2) / r ** 2
-        var[em.H] = g.pos_cov_enu[2, 2] + 0.1
-        var[list(em.V3)] = s.velocity_sigma ** 2
-        var[[em.TX, em.TY]] = s.tilt_sigma ** 2
-        var[em.BA] = s.accel_bias_sigma0 ** 2
-        var[em.BG] = s.gyro_bias_sigma0 ** 2
-        if heading_var >= 1.0:      # unknown: γ, β span the whole circle
-            var[em.GAMMA], var[em.BETA] = 1.0, 2.0
-        else:
-            var[em.GAMMA], var[em.BETA] = heading_var, heading_var ** 2 / 2
-        if self.nhc is not None:
-            var = np.append(var, s.nhc.crab_var(0.0))
-        return var
 
     def _propagate(self, gyro, accel, dt):
         mech = self.mech
@@ -296,25 +260,8 @@ class InsEkf:
         st = self.mech.state
         cn = c_cbar_ned(st.alpha)
         c_bc = self._f[3] if self._f is not None else st.c_b_cbar()
-        self._history.append((Snapshot(self.t, st.lat, st.lon, st.h, cn @ (T @ st.v), cn @ c_bc, self.omega_b.copy()),
-                              self._corr.copy()))
-        while self._history and self._history[0][0].t < self.t - self.s.history:
-            self._history.popleft()
-
-    def _snapshot_at(self, t):
-        """INS solution interpolated at epoch t, shifted by corrections applied since (latency compensation)."""
-        hist = self._history
-        i = len(hist) - 1
-        while i > 0 and hist[i - 1][0].t >= t:
-            i -= 1
-        (b, cb) = hist[i]
-        (a, ca) = hist[i - 1] if i > 0 else hist[i]
-        w = 0.0 if b.t == a.t else min(max((t - a.t) / (b.t - a.t), 0.0), 1.0)
-        d = self._corr - (ca + w * (cb - ca))
-        pos = (1 - w) * np.array([a.lat, a.lon, a.h]) + w * np.array([b.lat, b.lon, b.h]) + d[:3]
-        v = (1 - w) * a.v_ned + w * b.v_ned + d[3:]
-        near = b if w >= 0.5 else a
-        return Snapshot(t, pos[0], pos[1], pos[2], v, near.c_b_ned, near.omega_b)
+        self._history.append(Snapshot(self.t, st.lat, st.lon, st.h, cn @ (T @ st.v), cn @ c_bc, self.omega_b.copy()),
+                             self._corr)
 
     def _process_pending(self):
         keep = []
@@ -325,7 +272,7 @@ class InsEkf:
                 self._last_accept_t = self.t
             elif g.t > self.t:
                 keep.append(g)
-            elif g.t < self._history[0][0].t:
+            elif g.t < self._history.oldest:
                 self._reject("gnss_stale")
             else:
                 self._update(g)
@@ -352,10 +299,16 @@ class InsEkf:
 
     def _update(self, g):
         self._propagate_covariance()
-        snap = self._snapshot_at(g.t)
+        snap = self._history.at(g.t, self._corr)
         alpha = self.mech.state.alpha
         hv = self.p[em.GAMMA, em.GAMMA]
         use_vel = g.vel_enu is not None and not g.vel_from_fixes
+        var_h = float(np.trace(g.pos_cov_enu[:2, :2])) / 2
+        if var_h < self._fix_var_h / 4:     # better receiver class (float -> fixed): the state still carries the
+            r2 = (earth.mean_radius(snap.lat) + snap.h) ** 2        # old fixes' slowly drifting error
+            self.p[[em.RX, em.RY], [em.RX, em.RY]] += self._fix_var_h / r2
+            self.p[em.H, em.H] += self._fix_var_h
+        self._fix_var_h = var_h
         models = self.models if use_vel else self.models[:1]
         accepted = [lin for lin in (m.linearize(snap, alpha, g, hv, self.n_states) for m in models) if self._gated(lin)]
         position = any(lin.name == self.models[0].name for lin in accepted)

@@ -100,7 +100,8 @@ def run_ins_sim(run, outage=None):
     base_link estimate arrays at IMU epochs (NaN before initialisation), cost and filter health."""
     gyro, accel, gnss, mounts = sim_streams(run)
     guess = wrap_angle(math.pi / 2 - run.truth.yaw[0] + math.pi)       # heading, clockwise from north
-    ekf = InsEkf(InsEkfSettings(lever_gnss_frd=tuple(mounts.lever_gnss_frd), initial_heading=guess))
+    ekf = InsEkf(InsEkfSettings(lever_gnss_frd=tuple(mounts.lever_gnss_frd), lever_base_frd=tuple(-mounts.lever_imu_frd),
+                                initial_heading=guess))
     n = len(run.imu.t)
     sols = [None] * n
     gi = 0
