@@ -223,6 +223,13 @@ def _build():
                  gyro=env05f((0.0, 0.0, 0.028)), incl=None, gnss=AGGPS132, datum=SAPPORO),
         mems_field("mems_field", F9P_RTK),
         mems_field("mems_field_dgps", F9P_DGPS),
+        Scenario("ins_straight_fast", "Issue 15 GNSS/INS: the thesis' fast run (R4-7/8: Case MX240, ≈3 m manual start "
+                 "+ 150 m at 4.3 m/s on a tilled field with tyre sway, RTK 7400MSi 5 Hz, antenna (−1.67, 0, 3.23) m) "
+                 "with a consumer MEMS IMU (gyro + accelerometer) at 100 Hz",
+                 route=straight(170.0), driver=DriverParams(speed_mps=4.3, accel_mps2=1.0, start_standstill_s=5.0),
+                 vehicle=MX240, terrain=TerrainParams(rough_rms_deg=1.0, rough_wavelength_m=(4.0, 15.0)),
+                 sway=SwayParams(roll_rms_deg=0.5, pitch_rms_deg=0.5), gyro=MEMS_GYRO, accel=MEMS_ACCEL, incl=JCS_TILT,
+                 gnss=MS7400, mounts=mounts(imu=(0.5, 0.4, 1.5), gnss=(-1.67, 0.0, 3.23)), datum=SAPPORO),
         Scenario("rough_road_sway", "R5-7..10 with tyre/suspension sway: ≈50 m rough road at 0.8 m/s, roll/pitch "
                  "≈1.8° r.m.s. in 0.3–2 Hz (peaks ≈±5°), attitude package on the roof beside the antenna (2 m): raw "
                  "inclinometer errors of Table 5.4 (roll 3.28°, pitch 1.84°)", route=straight(50.0),
