@@ -1,0 +1,323 @@
+"""Tightly coupled GNSS/INS (SPEC §7.7, §7.8): the INS error state augmented with the receiver clock drift and the
+double-difference ambiguities in metres, updated with DD code, DD phase and undifferenced Doppler.
+
+State: the 16 INS error states of agnav_fusion.ins (Table 5-6-1, closed loop: fed back and reset after each
+update), the crab state of the loosely coupled filter's non-holonomic constraint (same model, same updates), then
+c·δṫ_r [m/s] and the ambiguities λN [m] (total states, kept across updates; ambiguities.reindex when satellites
+rise/set, slip or the reference changes). Observation models (x = computed − true):
+
+    DD code   z = Δ_A − h(r̂)        = −G δr_E + n_A
+    DD phase  z = Δ_Φ − h(r̂) − N̂    = −G δr_E + δN + n_I
+    Doppler   z = −λD − u·(v_s − v̂) − c·δṫ_r + c·δṫ_s = u·δv_E − δ(cδṫ_r) + ε
+
+r̂, v̂: the INS antenna position/velocity (IMU point + attitude × lever arm, ω × l), G = ∂h/∂r (double_difference).
+δr_E, δv_E (ECEF) per error state are the Jacobians of the antenna state through the feedback itself
+(ins.feedback.apply on a copy: a correction by ε·e_i moves the antenna by −J ε e_i), so lever arm, tilt and
+azimuth (γ) terms follow the INS's own conventions — the γ/β extension of §7.8 comes out of it. A fresh ambiguity
+starts at Δ_Φ − h(r̂) with a wide σ: the first phase update then gives it (5-8-1)'s value and its covariance and
+cross-covariances with the INS states ([IMPL] of §7.9). Cycle slips: the loss-of-lock flag, Doppler–phase
+consistency per satellite, and a phase innovation beyond both 4σ and half a wavelength reset that ambiguity.
+Integer fixing (fixing.fix, LAMBDA + ratio) with hold: an accepted fix is applied as a tight measurement of the
+ambiguities. ROS-free; drive with add_imu / add_epoch in time order (epochs on IMU stamps).
+"""
+import copy
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from agnav_common.frames import cross
+
+from agnav_fusion import kalman
+from agnav_fusion.gnss_raw import fixing
+from agnav_fusion.gnss_raw.ambiguities import reindex
+from agnav_fusion.gnss_raw.double_difference import DDConfig, form_double_differences
+from agnav_fusion.gnss_raw.ephemeris import satellite_states
+from agnav_fusion.gnss_raw.geometry import elevation_azimuth
+from agnav_fusion.gnss_raw.observations import CLIGHT
+from agnav_fusion.ins import earth, error_model as em, feedback
+from agnav_fusion.ins.constraints import CRAB
+
+DRIFT = CRAB + 1          # c·receiver clock drift [m/s]
+N_CORE = DRIFT + 1        # ambiguities follow
+POS_COLS = (em.RX, em.RY, em.H, em.TX, em.TY, em.GAMMA)
+VEL_COLS = (em.VX, em.VY, em.VZ, em.TX, em.TY, em.GAMMA)
+STEP = {em.RX: 1e-7, em.RY: 1e-7, em.H: 0.1, em.VX: 0.01, em.VY: 0.01, em.VZ: 0.01, em.TX: 1e-4, em.TY: 1e-4,
+        em.GAMMA: 1e-4}
+
+
+@dataclass
+class TightConfig:
+    dd: DDConfig = field(default_factory=lambda: DDConfig(sigma_code=0.5))
+    sigma_amb_init: float = 10.0      # m, a fresh ambiguity's σ about Δ_Φ − h(r̂)
+    sigma_amb_rate: float = 1e-4      # m/√s ambiguity random walk
+    sigma_doppler: float = 0.05       # m/s undifferenced range rate (× elevation factor); ≤ 0: no Doppler
+    sigma_drift_rate: float = 0.1     # m/s/√s random walk of c·δṫ_r
+    sigma_drift_init: float = 1.0     # m/s about the first epoch's mean Doppler residual
+    slip_doppler_cycles: float = 1.0  # |Δφ + mean(D)·Δt| beyond this flags a slip
+    fix: bool = True
+    hold: bool = True
+    sigma_hold: float = 0.002         # m, the held ambiguities
+    ratio_threshold: float = fixing.RATIO_THRESHOLD
+
+
+@dataclass
+class TightSolution:
+    t: float
+    antenna: np.ndarray       # ECEF m
+    antenna_cov: np.ndarray   # ECEF 3x3 m²
+    n_dd: int
+    fixed: bool
+    ratio: float
+    slips: int                # ambiguities reset this epoch (flags, Doppler–phase, innovation)
+
+
+def geodetic_to_ecef(lat, lon, h):
+    rn = earth.radii(lat)[1]
+    cl = math.cos(lat)
+    return np.array([(rn + h) * cl * math.cos(lon), (rn + h) * cl * math.sin(lon),
+                     (rn * (1.0 - earth.E2) + h) * math.sin(lat)])
+
+
+def ned_to_ecef(lat, lon):
+    """Columns: north, east, down in ECEF."""
+    sl, cl, so, co = math.sin(lat), math.cos(lat), math.sin(lon), math.cos(lon)
+    return np.array([[-sl * co, -so, -cl * co], [-sl * so, co, -cl * so], [cl, 0.0, -sl]])
+
+
+def antenna_state(mech, lever_frd, omega_b):
+    """(ECEF position, ECEF velocity) of the point at `lever_frd` (body FRD) from the IMU of `mech`."""
+    st = mech.state
+    lat, lon = st.lat, st.lon
+    c, r = st.c_b_ned(), ned_to_ecef(lat, lon)
+    return (geodetic_to_ecef(lat, lon, st.h) + r @ (c @ lever_frd),
+            r @ (st.v_ned() + c @ cross(omega_b, lever_frd)))
+
+
+class TightFilter:
+    """INS mechanization + error EKF augmented for DD code/phase and Doppler (see module docstring)."""
+
+    def __init__(self, mech, p_ins, settings, base_pos, config=None, nhc=None, crab=0.0, t=None):
+        """mech: ins Mechanization (taken over); p_ins: its 16x16 (or 17x17 with crab) error covariance;
+        settings: InsEkfSettings (error model, lever arms, covariance interval); nhc: ins NonHolonomic or None."""
+        self.mech, self.s, self.c = mech, settings, config or TightConfig()
+        self.lever = np.asarray(settings.lever_gnss_frd, float)
+        self.base_pos = np.asarray(base_pos, float)
+        self.nhc, self.crab = nhc, crab
+        n = len(p_ins)
+        self.p = np.zeros((N_CORE, N_CORE))
+        self.p[:n, :n] = p_ins
+        if n <= CRAB:
+            self.p[CRAB, CRAB] = 1e-6
+        self.p[DRIFT, DRIFT] = self.c.sigma_drift_init ** 2
+        self.x_drift, self.drift_ok = 0.0, False
+        self.amb = np.zeros(0)
+        self.keys, self.refs = [], {}
+        self.psd = np.zeros(N_CORE)
+        self.psd[:em.N_STATES] = settings.error.psd()
+        self.psd[DRIFT] = self.c.sigma_drift_rate ** 2
+        self.t, self._f, self._cov_dt, self._nhc_t = t, None, 0.0, -math.inf
+        self.omega_b = np.zeros(3)
+        self._prev_rover = None
+        self.stats = {"epochs": 0, "fixed": 0, "slips": 0, "doppler_rejected": 0}
+
+    @classmethod
+    def from_ins(cls, ekf, base_pos, config=None):
+        """Hand-over from a loosely coupled InsEkf (SPEC §7.9 loose → tight): mechanization, error covariance and
+        crab copied; the clock drift and ambiguities start at the first epoch ((5-8-1)–(5-8-3))."""
+        f = cls(copy.deepcopy(ekf.mech), ekf.p.copy(), ekf.s, base_pos, config, ekf.nhc, ekf.crab, ekf.t)
+        f.omega_b = ekf.omega_b.copy()
+        return f
+
+    # ------------------------------------------------------------------ INS
+    @property
+    def n(self):
+        return N_CORE + len(self.amb)
+
+    def add_imu(self, t, gyro_frd, accel_frd):
+        dt = t - self.t
+        rho, omega, a_c, c_bc = self.mech.step(gyro_frd, accel_frd, dt)
+        self.omega_b = np.asarray(gyro_frd) - self.mech.gyro_bias
+        self._f, self.t = (rho, omega, a_c, c_bc), t
+        self._cov_dt += dt
+        if self._cov_dt >= self.s.covariance_interval:
+            self._propagate()
+        if self.nhc is not None and t - self._nhc_t >= self.nhc.s.interval:
+            self._nhc_t = t
+            self._propagate()
+            st = self.mech.state
+            lin = self.nhc.linearize(st.c_b_cbar(), st.v, self.omega_b, self.crab, self.n)
+            s = lin.h @ self.p @ lin.h.T + lin.r
+            self._apply(*kalman.update(np.zeros(self.n), self.p, lin.z, s, lin.h, lin.r))
+
+    def _propagate(self):
+        dt, self._cov_dt = self._cov_dt, 0.0
+        if dt <= 0.0 or self._f is None:
+            return
+        st = self.mech.state
+        rho, omega, a_c, c_bc = self._f
+        f = em.dynamics(self.s.error, st.v, a_c, rho, omega, em.body_to_c(c_bc), st.lat, st.h, st.alpha)
+        phi = np.eye(self.n)
+        phi[:em.N_STATES, :em.N_STATES] += f * dt
+        q = np.concatenate([self.psd, np.full(len(self.amb), self.c.sigma_amb_rate ** 2)]) * dt
+        if self.nhc is not None:
+            a = min(dt / self.nhc.s.crab_tau, 1.0)
+            phi[CRAB, CRAB] = 1.0 - a
+            self.crab *= 1.0 - a
+            q[CRAB] = 2.0 * a * self.nhc.s.crab_var(st.euler()[0])
+        self.p = phi @ self.p @ phi.T + np.diag(q)
+
+    def _apply(self, x, p):
+        """Closed loop: INS errors and crab fed back and reset; drift and ambiguities are total states."""
+        feedback.apply(self.mech, x[:em.N_STATES])
+        self.crab -= x[CRAB]
+        self.x_drift += x[DRIFT]
+        self.amb = self.amb + x[N_CORE:]
+        j = feedback.azimuth_reset_jacobian(x[em.GAMMA], x[em.BETA], self.n)
+        p = j @ p @ j.T
+        p[em.BETA, em.BETA] = 0.5 * p[em.GAMMA, em.GAMMA] ** 2 + 1e-12
+        self.p = 0.5 * (p + p.T)
+
+    def antenna(self):
+        return antenna_state(self.mech, self.lever, self.omega_b)
+
+    def jacobians(self):
+        """(J_pos, J_vel) 3 x n: antenna ECEF position / velocity error per state (through feedback.apply)."""
+        p0, v0 = self.antenna()
+        jp, jv = np.zeros((3, self.n)), np.zeros((3, self.n))
+        for i in sorted(set(POS_COLS) | set(VEL_COLS)):
+            m = copy.deepcopy(self.mech)
+            x = np.zeros(em.N_STATES)
+            x[i] = STEP[i]
+            feedback.apply(m, x)
+            p1, v1 = antenna_state(m, self.lever, self.omega_b)
+            jp[:, i], jv[:, i] = (p0 - p1) / STEP[i], (v0 - v1) / STEP[i]
+        return jp, jv
+
+    # ------------------------------------------------------------------ GNSS
+    def _doppler_slips(self, rover):
+        """Satellites whose phase change disagrees with the mean Doppler over the epoch interval."""
+        prev, out = self._prev_rover, set()
+        self._prev_rover = rover
+        if prev is None or not 0.0 < rover.time - prev.time <= 5.0:
+            return out
+        dt = rover.time - prev.time
+        for i, sid in enumerate(rover.sats):
+            k = prev.row(sid)
+            if k is None:
+                continue
+            d = rover.phase[i] - prev.phase[k] + 0.5 * (rover.doppler[i] + prev.doppler[k]) * dt
+            if np.any(np.abs(d[np.isfinite(d)]) > self.c.slip_doppler_cycles):
+                out.add(sid)
+        return out
+
+    def _reindex(self, dd, h, flagged):
+        reset = np.array([dd.slip[i] or dd.ref_slip.get(k[:2], False) or k[2] in flagged
+                          or dd.refs[k[:2]] in flagged for i, k in enumerate(dd.keys)], bool)
+        x = np.concatenate([np.zeros(N_CORE), self.amb])
+        x, self.p, fresh = reindex(x, self.p, N_CORE, self.keys, self.refs, dd.keys, dd.refs, reset,
+                                   dd.phase - h, np.full(len(dd), self.c.sigma_amb_init ** 2))
+        self.amb, self.keys, self.refs = x[N_CORE:], list(dd.keys), dict(dd.refs)
+        return int(fresh.sum())
+
+    def _reset_ambiguity(self, i, value):
+        k = N_CORE + i
+        self.p[k, :], self.p[:, k] = 0.0, 0.0
+        self.p[k, k] = self.c.sigma_amb_init ** 2
+        self.amb[i] = value
+
+    def _doppler_rows(self, rover, sv, pos, vel, jv):
+        """(z, H, R) of the rover's undifferenced Doppler (elevation and SNR masks of the DD config)."""
+        rows, z, var = [], [], []
+        el_all = elevation_azimuth(pos, np.where(sv.valid[:, None], sv.pos, pos + 1e7))[0]
+        for i, sid in enumerate(rover.sats):
+            d, snr = rover.doppler[i, 0], rover.snr[i, 0]
+            if not (sv.valid[i] and np.isfinite(d)) or el_all[i] < math.radians(self.c.dd.elevation_mask_deg) \
+                    or not snr >= self.c.dd.snr_mask_dbhz:
+                continue
+            los = sv.pos[i] - pos
+            u = los / np.linalg.norm(los)
+            pred = u @ (sv.vel[i] - vel) + self.x_drift - CLIGHT * sv.drift[i]
+            row = np.zeros(self.n)
+            row[:] = u @ jv
+            row[DRIFT] = 1.0
+            rows.append(row)
+            z.append(-rover.wavelength[i, 0] * d - pred)
+            var.append(self.c.sigma_doppler ** 2 * (1.0 + 1.0 / math.sin(el_all[i]) ** 2))
+        if not rows:
+            return None
+        z = np.array(z)
+        if not self.drift_ok:                     # (5-8-3) + [IMPL]: start at the mean residual
+            self.x_drift += float(np.median(z))
+            z -= np.median(z)
+            self.drift_ok = True
+        return z, np.array(rows), np.diag(var)
+
+    def add_epoch(self, rover, base, nav):
+        """One rover + base ObsEpoch pair at the current IMU time -> TightSolution (None without DDs or Doppler)."""
+        self._propagate()
+        flagged = self._doppler_slips(rover)
+        pos, vel = self.antenna()
+        cache = {}
+        sv_b = satellite_states(base, nav, self.base_pos, cache)
+        sv_r = satellite_states(rover, nav, pos, cache)
+        dd = form_double_differences(rover, base, sv_r, sv_b, self.base_pos, self.c.dd)
+        jp, jv = self.jacobians()
+        blocks, slips = [], 0
+        if dd is not None and len(dd) > 0:
+            h, g = dd.geometry(pos)
+            slips = self._reindex(dd, h, flagged)
+            jp = np.hstack([jp[:, :N_CORE], np.zeros((3, len(self.amb)))])
+            jv = np.hstack([jv[:, :N_CORE], np.zeros((3, len(self.amb)))])
+            m = len(dd)
+            hc = -g @ jp
+            hp = hc.copy()
+            hp[:, N_CORE:] = np.eye(m)
+            zp = dd.phase - h - self.amb
+            s_ii = np.einsum("ij,jk,ik->i", hp, self.p, hp) + np.diag(dd.cov_phase)
+            for i in np.flatnonzero((np.abs(zp) > 4.0 * np.sqrt(s_ii)) & (np.abs(zp) > 0.5 * dd.wavelength)):
+                self._reset_ambiguity(i, dd.phase[i] - h[i])
+                slips += 1
+            zp = dd.phase - h - self.amb
+            blocks += [(dd.code - h, hc, dd.cov_code), (zp, hp, dd.cov_phase)]
+        else:
+            self.amb, self.keys, self.refs = np.zeros(0), [], {}
+            self.p = self.p[:N_CORE, :N_CORE]
+            jp, jv = jp[:, :N_CORE], jv[:, :N_CORE]
+        if self.c.sigma_doppler > 0:
+            rows = self._doppler_rows(rover, sv_r, pos, vel, jv)
+            if rows is not None:
+                blocks.append(rows)
+        if not blocks:
+            return None
+        self._update(blocks)
+        fixed, ratio = self._fix(dd) if dd is not None and self.c.fix else (False, 0.0)
+        self.stats["epochs"] += 1
+        self.stats["fixed"] += int(fixed)
+        self.stats["slips"] += slips
+        pos = self.antenna()[0]
+        jp = self.jacobians()[0]
+        return TightSolution(self.t, pos, jp @ self.p @ jp.T, 0 if dd is None else len(dd), fixed, ratio, slips)
+
+    def _update(self, blocks):
+        z = np.concatenate([b[0] for b in blocks])
+        h = np.vstack([b[1] for b in blocks])
+        r = np.zeros((len(z), len(z)))
+        k = 0
+        for b in blocks:
+            r[k:k + len(b[0]), k:k + len(b[0])] = b[2]
+            k += len(b[0])
+        self._apply(*kalman.update(np.zeros(self.n), self.p, z, h @ self.p @ h.T + r, h, r))
+
+    def _fix(self, dd):
+        x = np.concatenate([np.zeros(N_CORE), self.amb])
+        fx = fixing.fix(x, self.p, N_CORE, dd.wavelength, self.c.ratio_threshold)
+        if not fx.ok:
+            return False, fx.ratio
+        if self.c.hold:
+            m = len(self.amb)
+            h = np.zeros((m, self.n))
+            h[:, N_CORE:] = np.eye(m)
+            r = np.eye(m) * self.c.sigma_hold ** 2
+            z = fx.integers * dd.wavelength - self.amb
+            self._apply(*kalman.update(np.zeros(self.n), self.p, z, h @ self.p @ h.T + r, h, r))
+        return True, fx.ratio
