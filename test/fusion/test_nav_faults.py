@@ -113,7 +113,7 @@ def test_imu_gaps_are_bridged_with_growing_covariance(gap, clean_worst):
     if gap > nsm.settings.history:  # the fix that arrived during the gap is older than the history after it
         assert nsm.counters["gnss_too_old"] + nsm.counters["gnss_in_imu_gap"] >= 1
     after = [(t, s, x, y, yaw) for t, s, x, y, yaw in out if 40.0 + gap < t < 41.0 + gap]
-    assert errors(after)[0] < 0.1  # not left behind by speed x gap
+    assert errors(after)[0] < 0.12  # not left behind by speed x gap (a fix is used lever_rate_window/2 late)
     assert_honest(out, clean_worst)
 
 

@@ -11,8 +11,10 @@ import math
 import numpy as np
 
 from agnav_fusion.attitude_kf import AttitudeKF
+from agnav_fusion.heading_chord import HeadingChord
 from agnav_fusion.nav_ekf import IA, IB, IC, IPHI, IR, IV, NavEKF
 from agnav_fusion.nav_settings import GRAVITY, cross, euler_rates
+from agnav_fusion.tilt_correction import antenna_offset, offset_heading_jacobian, tilt_variance
 
 POSE_XY_YAW, EKF_XY_PHI = np.ix_([0, 1, 5], [0, 1, 5]), np.ix_([0, 1, IPHI], [0, 1, IPHI])
 YAW_SIGN = np.array([[1, 1, -1], [1, 1, -1], [-1, -1, 1]])  # heading cw -> yaw ccw flips the cross terms
@@ -29,7 +31,7 @@ class AgnavEstimator:
         self.wheel = None          # latest wheel speed (t, speed, variance) not yet fused
         self.raw_heading = 0.0     # relative yaw before the absolute heading exists
         self.heading_known = False  # absolute heading initialised from the GNSS course
-        self.chord_start = None    # (xy, relative heading) of the first moving fix before initialisation
+        self.chord = HeadingChord(s.chord_max_turn, s.heading_init_distance, s.heading_valid_sigma)
         self.still = False         # the latest fix says the vehicle stands still
         self.fix_speed = None      # (epoch, EKF speed after the fix): the fixes' own acceleration
         self.fix_accel = 0.0       # m/s^2, speed change between fixes: compensates the inclinometer in accelerometer
@@ -118,9 +120,11 @@ class AgnavEstimator:
         if speed is None and m.last_fix is not None:  # V from successive tilt-corrected fixes
             speed = float(np.hypot(*(xy - m.last_fix[1][:2]))) / max(t - m.last_fix[0], 1e-3)
         doppler = not differenced and self._doppler(vel, vel_var)
-        # still: slower than stationary_speed, or for a receiver velocity than twice its noise (its norm's bias)
+        # still: slower than stationary_speed, or for a receiver velocity than twice its noise (its norm's bias); a
+        # fix difference (antenna sway, jitter) only when the EKF's speed agrees
         still_below = max(s.stationary_speed, 2.0 * s.velocity_sigma) if doppler else s.stationary_speed
-        was_still, self.still = self.still, speed is not None and speed < still_below
+        creeping = doppler or self.ekf.x is None or abs(self.ekf.x[IV]) < still_below
+        was_still, self.still = self.still, speed is not None and speed < still_below and creeping
         return self._fuse_fix(k, t, xy, R, v_ref, vel_var, speed, was_still and not self.still, doppler, differenced)
 
     def _fuse_fix(self, k, t, xy, R, v_ref, vel_var, speed, started, doppler, differenced):
@@ -137,15 +141,17 @@ class AgnavEstimator:
         if first:
             pass
         elif not self.heading_known:
-            self._fix_before_heading(snap, xy, R, v_ref, vel_var, speed, doppler)
+            self._fix_before_heading(snap, t, xy, R, v_ref, vel_var, speed, doppler)
         else:
-            y, S, d2, H = ekf.position_innovation(xy, R)
+            jac = offset_heading_jacobian(self.m.lever, snap.heading, snap.pitch, snap.roll)
+            y, S, d2, H = ekf.position_innovation(xy, R, jac)
             verdict = self.m.gate(t, d2)
             if verdict is False and not doppler:  # a refused fix's own difference velocity is no better
                 ekf.x, ekf.P = hist[-1].nav[0].copy(), hist[-1].nav[1].copy()
                 return False
-            if verdict is None:
+            if verdict is None:  # fixes refused for long: position and heading diverged; restart both
                 ekf.reset_position(xy, R)
+                self._forget_heading()
             elif verdict:
                 ekf.update(y, S, H, R)
             if self.still and doppler:  # standing: zero speed (noise has no direction)
@@ -153,10 +159,17 @@ class AgnavEstimator:
             elif s.use_gnss_velocity and v_ref is not None and not differenced:  # even when its fix is refused
                 Rv = (vel_var + self.m.lever_velocity_variance()) * np.eye(2)
                 y, S, d2, H = ekf.velocity_innovation(v_ref, Rv)
+                if d2 > s.gate_chi2:  # the speed model fell behind a speed change: V's variance takes the miss
+                    ekf.P[IV, IV] += float(y @ H[:, IV]) ** 2  # (H[:, IV]: the course unit vector)
+                    y, S, d2, H = ekf.velocity_innovation(v_ref, Rv)
                 if d2 <= s.gate_chi2:
                     ekf.update(y, S, H, Rv)
                 else:
                     self.m.guard.count("velocity_gated")
+            if (ekf.x[IV] < -max(s.heading_init_speed, 3.0 * math.sqrt(ekf.P[IV, IV]))
+                    and ekf.P[IPHI, IPHI] > s.heading_valid_sigma ** 2):
+                # backwards on a heading known too poorly to tell reversing from the mirror image (phi + pi, -V)
+                self._forget_heading()
         snap.nav, snap.heading = (ekf.x.copy(), ekf.P.copy()), ekf.x[IPHI]
         if self.fix_speed is not None and 0 < t - self.fix_speed[0] <= 3.0:
             a = 0.0 if self.still else (ekf.x[IV] - self.fix_speed[1]) / (t - self.fix_speed[0])
@@ -167,27 +180,39 @@ class AgnavEstimator:
             hist[j].nav, hist[j].heading = (ekf.x.copy(), ekf.P.copy()), ekf.x[IPHI]
         return verdict is not False
 
-    def _fix_before_heading(self, snap, xy, R, v_ref, vel_var, speed, doppler):
-        """No heading yet: decoupled heading and crab, speed fused, heading from the chord of moving fixes or the
-        course (the chord measures the course: the heading is it less a crab of crab_sigma)."""
-        s, ekf = self.m.settings, self.ekf
-        crab_var = s.ekf.crab_sigma ** 2
-        for i, var in ((IPHI, math.pi ** 2), (IB, ekf.P[IB, IB]), (IC, crab_var)):
+    def _fix_before_heading(self, snap, t, xy, R, v_ref, vel_var, speed, doppler):
+        """No heading yet: decoupled heading and crab, speed fused, the position follows the fixes; the heading comes
+        from the chord of the fixes (heading_chord.py) once it is known within heading_valid_sigma; the receiver's
+        course is a provisional heading meanwhile."""
+        m, s, ekf = self.m, self.m.settings, self.ekf
+        heading_part = tilt_variance(m.lever, 0.0, 0.0, ekf.P[IPHI, IPHI])  # of R: the lever placed blindly
+        for i, var in ((IPHI, math.pi ** 2), (IB, ekf.P[IB, IB]), (IC, s.ekf.crab_sigma ** 2)):
             ekf.P[i, :] = ekf.P[:, i] = 0.0
             ekf.P[i, i] = var
         if self.still and doppler:
             self._fuse(ekf.standstill_innovation(s.standstill_sigma ** 2), gated=False)
-        elif v_ref is not None and speed > 3.0 * math.sqrt(vel_var):  # (a slower norm is biased by the noise)
-            self._fuse(ekf.speed_innovation(speed, vel_var))  # needs no heading: carries the start of motion
-        chord = self._chord_course(xy, snap.raw_heading, speed or 0.0, R)
-        if chord is not None:  # absolute course from the chord between moving fixes
-            course, var = chord
+        elif doppler and speed > 3.0 * math.sqrt(vel_var):  # (a slower norm is biased by the noise)
+            # needs no heading; ungated: the start of motion outruns the speed model, and nothing is published yet
+            self._fuse(ekf.speed_innovation(speed, vel_var), gated=False)
+        white = max(float(np.trace(R)) / 2 - heading_part, 0.0)
+        antenna = xy + antenna_offset(m.lever, snap.heading, snap.pitch, snap.roll)[:2]
+        chord = self.chord.add(m.lever, t, antenna, snap.raw_heading, snap.pitch, snap.roll, white)
+        if chord is not None:
+            course, var, xy, mean_speed = chord
             self._set_course(course, var)
             self.heading_known = True
-        elif v_ref is not None and speed >= s.heading_init_speed:  # provisional: the course over ground
+            if not doppler:  # the fixes' mean speed along the chord
+                ekf.x[IV], ekf.P[IV, IV] = mean_speed, max(ekf.P[IV, IV], s.ekf.init_speed_sigma ** 2)
+            R = (white + tilt_variance(m.lever, 0.0, 0.0, ekf.P[IPHI, IPHI])) * np.eye(2)
+        elif doppler and speed >= s.heading_init_speed:  # provisional: the course over ground
             self._set_course(math.atan2(*v_ref), s.ekf.init_heading_sigma ** 2)
-        y, S, d2, H = ekf.position_innovation(xy, R)
-        ekf.update(y, S, H, R)
+        ekf.reset_position(xy, R)
+
+    def _forget_heading(self):
+        """The heading is no longer known (diverged or reversed): nothing published until a new chord."""
+        self.heading_known = False
+        self.chord.clear()
+        self.m.guard.count("heading_restart")
 
     def _set_course(self, course, var):
         """Heading = course - crab: the crab's variance (and correlation) is added to the course's."""
@@ -211,33 +236,16 @@ class AgnavEstimator:
         else:
             self.m.guard.count(counter)
 
-    def _chord_course(self, xy, rel_heading, speed, R):
-        """(course, variance) (rad, cw from north) at this fix from the chord to the first moving fix once it is
-        heading_init_distance long (the chord's direction is the mean course: half the gyro turn is added), or None;
-        a chord that turns more than chord_max_turn restarts. The variance counts both fixes' white noise, their
-        tilt-correction error (the heading used to place the lever arm is still unknown) and the turn's curvature.
-        speed: from /gnss/vel when present, else from successive fixes."""
-        s = self.m.settings
-        if speed < s.heading_init_speed:
-            self.chord_start = None
-            return None
-        if self.chord_start is None or abs(rel_heading - self.chord_start[1]) > s.chord_max_turn:
-            self.chord_start = (xy, rel_heading, R)
-            return None
-        d = xy - self.chord_start[0]
-        length = np.hypot(*d)
-        if length < s.heading_init_distance:
-            return None
-        turn = math.remainder(rel_heading - self.chord_start[1], 2 * math.pi)
-        var = (np.trace(R) + np.trace(self.chord_start[2])) / 2 / length ** 2 + (turn / 4) ** 2
-        return math.atan2(d[0], d[1]) + 0.5 * turn, var
-
     # ---- outputs --------------------------------------------------------------------------------------
     def crab(self):
         """(crab angle rad, clockwise: course = heading + crab, variance), or None before the EKF starts."""
         return None if self.ekf.x is None else self.ekf.crab()
 
     def heading_variance(self):
+        """Heading variance the tilt correction adds to a fix's: none once the heading is known (the position
+        update carries the lever's heading Jacobian)."""
+        if self.heading_known:
+            return 0.0
         return float(self.ekf.P[IPHI, IPHI]) if self.ekf.x is not None else math.inf
 
     def rate_corrections(self):

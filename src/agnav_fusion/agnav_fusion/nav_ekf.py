@@ -164,11 +164,14 @@ class NavEKF:
         if self.log:
             self.log[-1][3:] = [self.x.copy(), self.P.copy()]
 
-    def position_innovation(self, xy, R):
-        """(y, S, d2, H) of a horizontal position fix (position + receiver bias; R its white covariance)."""
+    def position_innovation(self, xy, R, lever_jacobian=(0.0, 0.0)):
+        """(y, S, d2, H) of a horizontal position fix (position + receiver bias; R its white covariance), the fix
+        moved to the reference point with the current heading: lever_jacobian = d(antenna offset)/d(heading)."""
         H = np.zeros((2, N))
         H[0, IX] = H[1, IY] = H[0, IBX] = H[1, IBY] = 1.0
-        y, S, d2 = kalman.innovation(self.x, self.P, np.asarray(xy, dtype=float), H, R)
+        H[:, IPHI] = lever_jacobian  # about the current heading: no term in the prediction
+        h = self.x[IX:IPHI] + self.x[IBX:IC]
+        y, S, d2 = kalman.innovation(self.x, self.P, np.asarray(xy, dtype=float), H, R, h=h)
         return y, S, d2, H
 
     def zero_rate_innovation(self, rate, var):

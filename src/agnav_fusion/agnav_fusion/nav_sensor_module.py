@@ -165,7 +165,7 @@ class NavSensorModule:
     def _drain_gnss(self):
         if not self.history:
             return
-        now = self.history[-1].t
+        now = self.history[-1].t - self.settings.lever_rate_window / 2  # the lever rates centred on the epoch
         ready = [g for g in self._pending_gnss if g[0] <= now]
         self._pending_gnss = [g for g in self._pending_gnss if g[0] > now]
         for fix in ready:
@@ -237,9 +237,11 @@ class NavSensorModule:
 
     def _lever_velocity(self, k):
         """ENU velocity of the antenna relative to base_link at history sample k: omega x lever, omega the corrected
-        body rate averaged over lever_rate_window (a FOG's angle noise differentiated per sample would be m/s)."""
+        body rate averaged over lever_rate_window centred on the epoch (a FOG's angle noise differentiated per sample
+        would be m/s; a window ending at the epoch would lag the sway by half its length)."""
         hist, snap = self.history, self.history[k]
-        window = [h.body_rates for h in hist if snap.t - self.settings.lever_rate_window <= h.t <= snap.t]
+        half = self.settings.lever_rate_window / 2
+        window = [h.body_rates for h in hist if abs(h.t - snap.t) <= half]
         omega = self._corrected_rates(np.mean(window, axis=0))
         v_body = cross(omega, self.settings.lever_flu)
         e = tilt_correction.vehicle_to_ground(snap.heading, snap.pitch, snap.roll)

@@ -38,16 +38,17 @@ class NavSensorModuleSettings:
     velocity_sigma: float = 0.05              # m/s, 1-sigma per axis of GNSS velocity
     gate_chi2: float = 13.8                   # squared Mahalanobis gate, 2 dof 99.9 %
     gnss_reset_time: float = 30.0             # s of fixes refused by the gate, then the position restarts from them
-    heading_init_speed: float = 0.3           # m/s of GNSS speed before the absolute heading is initialised
-    heading_init_distance: float = 3.0        # m of chord between moving fixes that initialises the heading
-    chord_max_turn: float = 0.35              # rad of gyro turn along that chord: more restarts it (agnav)
+    heading_init_speed: float = 0.3           # m/s: slower receiver courses are no provisional heading; driving
+    #                                           backwards this fast (beyond 3 sigma) restarts the heading (agnav)
+    heading_init_distance: float = 3.0        # m, shortest chord of fixes that initialises the heading
+    chord_max_turn: float = 0.35              # rad of gyro turn a chord may span (agnav)
     heading_valid_sigma: float = 0.05         # rad: the heading is published once known this well (agnav)
     stationary_speed: float = 0.05            # m/s: slower fixes mark the vehicle still (yaw rate zero: gyro bias)
     standstill_sigma: float = 0.005           # m/s (and m/s^2): speed and acceleration of a vehicle at rest
     wheel_speed_sigma: float = 0.05           # m/s, floor of a wheel/radar speed's noise (agnav; /wheel/odometry)
     wheel_slip_sigma: float = 0.03            # of the speed: slip and rolling-radius error of a wheel speed
     wheel_timeout: float = 0.5                # s, an older wheel speed is not fused
-    lever_rate_window: float = 0.2            # s of body rates averaged for the antenna lever-arm velocity
+    lever_rate_window: float = 0.1            # s of body rates averaged (centred) for the antenna lever velocity
     lever_rate_sigma: float = 0.02            # rad/s, error of that rate at the receiver's velocity epoch (sway)
     fix_accel_gain: float = 0.3               # smoothing of the fixes' speed change (inclinometer compensation)
     max_accel: float = 3.0                    # m/s^2, along-track accelerometer reading clipped (bumps) (agnav)

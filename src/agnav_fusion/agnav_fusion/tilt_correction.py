@@ -36,6 +36,13 @@ def antenna_offset(lever, heading, pitch, roll):
     return vehicle_to_ground(heading, pitch, roll) @ np.asarray(lever, dtype=float)
 
 
+def offset_heading_jacobian(lever, heading, pitch, roll):
+    """d(dx, dy)/d(heading) of the antenna displacement (4.23): how a heading error moves a corrected fix."""
+    x, y, _ = f2(-pitch) @ f1(-roll) @ np.asarray(lever, dtype=float)
+    c, s = math.cos(heading), math.sin(heading)
+    return np.array([-s * x + c * y, -c * x - s * y])
+
+
 def correct(antenna_xyz, lever, heading, pitch, roll):
     """Reference-point position (X', Y', Z') = antenna - E (a, b, h) (4.24)."""
     return np.asarray(antenna_xyz, dtype=float) - antenna_offset(lever, heading, pitch, roll)

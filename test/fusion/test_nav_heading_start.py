@@ -1,0 +1,126 @@
+"""agnav estimator (issue 15): the heading start from the chord of fixes with a long lever arm and a swaying
+antenna, the lever's heading Jacobian in the position update, the start of motion outrunning the speed model, and
+reversing. Synthetic drives with noisy sensors, the antenna high and behind base_link as on the campaign's tractors."""
+import math
+
+import numpy as np
+
+from agnav_fusion.nav_ekf import IPHI, IV
+from agnav_fusion.nav_sensor_module import NavSensorModule, NavSensorModuleSettings
+
+RATE = 100.0
+LEVER = (-1.3, 0.2, 2.2)   # base_link -> gnss_link FLU: 1.3 m behind, 2.2 m high
+YAW0 = math.radians(-30.0)
+
+
+def rotation(roll, pitch, yaw):
+    """REP-103 body -> ENU rotation."""
+    cr, sr, cp, sp, cy, sy = (math.cos(roll), math.sin(roll), math.cos(pitch), math.sin(pitch), math.cos(yaw),
+                              math.sin(yaw))
+    return np.array([[cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
+                     [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr], [-sp, cp * sr, cp * cr]])
+
+
+def drive(speed, yaw_rate, seconds=80.0, gnss_hz=10.0, doppler=False, sway=0.03, seed=3, hook=None):
+    """Start standing still facing YAW0, then speed(t) m/s turning at yaw_rate(t) rad/s (REP-103) with roll/pitch
+    sway (rad RMS, ~1 Hz); RTK-like fixes of the swaying antenna (1 cm), with a receiver velocity or the front end's
+    fix difference; hook(t, module) is called every sample. -> (module, [(t, state, x, y, yaw, v)])."""
+    rng = np.random.default_rng(seed)
+    nsm = NavSensorModule(NavSensorModuleSettings(lever_flu=LEVER))
+    lever = np.array(LEVER)
+    x = y = yaw = 0.0
+    yaw, dt, out, last = YAW0, 1.0 / RATE, [], None
+    phase = rng.uniform(0, 2 * math.pi, 4)
+
+    def tilt(t):
+        return (sway * math.sin(6.1 * t + phase[0]) + 0.5 * sway * math.sin(11.3 * t + phase[1]),
+                sway * math.sin(5.3 * t + phase[2]) + 0.5 * sway * math.sin(9.7 * t + phase[3]))
+    for k in range(1, int(seconds * RATE)):
+        t = k * dt
+        v, w = speed(t), yaw_rate(t)
+        yaw += w * dt
+        x += v * math.cos(yaw) * dt
+        y += v * math.sin(yaw) * dt
+        (roll, pitch), (roll1, pitch1) = tilt(t), tilt(t + dt)
+        droll, dpitch = (roll1 - roll) / dt, (pitch1 - pitch) / dt
+        if k % int(RATE / gnss_hz) == 0:
+            arm, arm1 = rotation(roll, pitch, yaw) @ lever, rotation(roll1, pitch1, yaw + w * dt) @ lever
+            ant = np.array([x, y, 0.0]) + arm + np.r_[rng.normal(0, 0.01, 2), 0.0]
+            if doppler:  # the antenna's velocity: the vehicle's and the sway's
+                vel = v * np.array([math.cos(yaw), math.sin(yaw), 0.0]) + (arm1 - arm) / dt + rng.normal(0, 0.03, 3)
+            else:
+                vel = None if last is None else (ant - last[1]) / (t - last[0])
+            nsm.gnss(t, ant, np.diag([1e-4, 1e-4, 4e-4]), vel, None if doppler or vel is None else 1e-3)
+            last = (t, ant)
+        nsm.inclinometer(t, roll + rng.normal(0, 0.003), pitch + rng.normal(0, 0.003))
+        gyro = np.array([droll, dpitch, w]) + rng.normal(0, 0.002, 3)
+        if hook:
+            hook(t, nsm)
+        out.append((t, nsm.imu(t, gyro), x, y, yaw, v))
+    return nsm, out
+
+
+def heading_errors(out):
+    rows = [(t, s, yaw) for t, s, x, y, yaw, v in out if s is not None and s.heading_valid]
+    err = np.array([math.remainder(s.rpy[2] - yaw, 2 * math.pi) for t, s, yaw in rows])
+    sig = np.array([math.sqrt(s.pose_cov[5, 5]) for t, s, yaw in rows])
+    return np.array([r[0] for r in rows]), err, sig
+
+
+def test_a_slow_swaying_start_without_receiver_velocity_gives_the_heading_within_its_covariance():
+    """0.5 m/s on a swaying road with the antenna 1.3 m behind, 10 Hz fixes without /gnss/vel (campaign seed 19:
+    the chord of fixes tilt-corrected with an unknown heading was bent by the lever, the heading started 30 deg
+    uncertain and settled on its mirror image, driving backwards): the heading is published within 20 s, never
+    outside 3 sigma, within 0.5 deg RMS once settled (turns included), and the speed stays forward."""
+    _, out = drive(lambda t: 0.5 * float(np.clip(t - 5.0, 0.0, 1.0)),
+                   lambda t: 0.12 if 30.0 <= t < 45.0 or 60.0 <= t < 70.0 else 0.0)
+    t, err, sig = heading_errors(out)
+    assert t[0] < 20.0
+    assert np.all(np.abs(err) <= 3 * sig)
+    assert math.sqrt(np.mean(err[t > 25.0] ** 2)) < math.radians(0.5)
+    assert min(s.speed for t, s, *_ in out if s is not None and s.heading_valid) > 0.2
+
+
+def test_the_receiver_speed_starts_the_motion_before_the_heading_is_known():
+    """Accelerating at 0.5 m/s^2 to 3 m/s with /gnss/vel (campaign seed 27: every speed was gated against the
+    speed model, the chord heading came with zero speed and the fixes were refused for 30 s): the position follows
+    the fixes from the first published sample (within 0.5 m across the end of the acceleration, which the speed
+    model does not foresee; 15 cm 3 s after it)."""
+    nsm, out = drive(lambda t: float(np.clip(0.5 * (t - 5.0), 0.0, 3.0)), lambda t: 0.0, seconds=30.0, gnss_hz=1.0,
+                     doppler=True)
+    rows = [(t, s, x, y) for t, s, x, y, yaw, v in out if s is not None and s.heading_valid]
+    assert rows and rows[0][0] < 11.0
+    err = np.array([math.hypot(s.position[0] - x, s.position[1] - y) for t, s, x, y in rows])
+    t = np.array([r[0] for r in rows])
+    assert err.max() < 0.3 and err[t > 14.0].max() < 0.15
+    assert nsm.counters["gnss_gated"] <= 2
+
+
+def test_reversing_on_a_known_heading_keeps_it():
+    """Driving forward, then 1 m/s backwards: with the heading known the speed goes negative and the heading stays
+    right (reversing is real, not the mirror image)."""
+    def speed(t):
+        return 1.0 * float(np.clip(t - 5.0, 0.0, 1.0)) - 2.0 * float(np.clip(t - 30.0, 0.0, 1.0))
+    nsm, out = drive(speed, lambda t: 0.05 if 15.0 <= t < 25.0 else 0.0, seconds=45.0, doppler=True)
+    t, err, sig = heading_errors(out)
+    assert t[-1] > 44.0 and np.all(np.abs(err) <= 3 * sig) and np.abs(err[t > 25.0]).max() < math.radians(1.0)
+    assert out[-1][1].speed < -0.8
+    assert nsm.counters["heading_restart"] == 0
+
+
+def test_a_mirror_image_heading_is_forgotten_and_started_again():
+    """The EKF flipped onto its mirror image at 20 s (heading + pi, speed backwards, heading poorly known; how
+    campaign seed 19 ended): it stops publishing, starts the heading again from the chord and is right again."""
+    def flip(t, nsm):
+        if abs(t - 20.0) < 0.5 / RATE:
+            for sample in nsm.history:
+                x, P = (a.copy() for a in sample.nav)
+                x[IPHI], x[IV], P[IPHI, IPHI] = math.remainder(x[IPHI] + math.pi, 2 * math.pi), -x[IV], 0.3
+                sample.nav, sample.heading = (x, P), x[IPHI]
+            nsm.estimator.ekf.x, nsm.estimator.ekf.P = (a.copy() for a in nsm.history[-1].nav)
+    nsm, out = drive(lambda t: float(np.clip(t - 5.0, 0.0, 1.0)), lambda t: 0.0, seconds=40.0, doppler=True,
+                     hook=flip)
+    assert nsm.counters["heading_restart"] == 1
+    t, err, sig = heading_errors(out)
+    assert np.all(np.abs(err[t > 20.0]) <= 3 * sig[t > 20.0])
+    assert t[-1] > 39.0 and abs(err[-1]) < math.radians(1.0)
