@@ -100,3 +100,15 @@ def test_jacobians_follow_the_ins_conventions(nav):
     assert np.allclose(jv[:, em.VZ], up, atol=1e-6)
     assert np.linalg.norm(jp[:, em.GAMMA]) < 1e-4                          # antenna above the IMU: no heading arm
     assert abs(np.linalg.norm(jv[:, em.GAMMA]) - np.sqrt(2.0)) < 1e-3      # velocity turned by the azimuth error
+
+
+def test_unflagged_slips_found_by_doppler_phase(nav):
+    from agnav_fusion.gnss_raw.tight import doppler_phase_slips
+    t, pos, vel, origin, axes = straight_track(40.0)
+    sim = simulate_raw(t, pos, vel, nav, origin, axes, RawSimConfig(slip_rate=0.02, slip_flagged=0.0, seed=5))
+    truth, found = set(), set()
+    for prev, e in zip(sim.epochs, sim.epochs[1:]):
+        assert not e.rover.lli[[e.rover.row(s) for s in e.slipped], 0].any()     # silent slips
+        truth |= {(e.t, s) for s in e.slipped}
+        found |= {(e.t, s) for s in doppler_phase_slips(prev.rover, e.rover)}
+    assert len(truth) >= 5 and truth == found

@@ -53,7 +53,7 @@ class TightConfig:
     sigma_doppler: float = 0.05       # m/s undifferenced range rate (× elevation factor); ≤ 0: no Doppler
     sigma_drift_rate: float = 0.1     # m/s/√s random walk of c·δṫ_r
     sigma_drift_init: float = 1.0     # m/s about the first epoch's mean Doppler residual
-    slip_doppler_cycles: float = 1.0  # |Δφ + mean(D)·Δt| beyond this flags a slip
+    slip_doppler_cycles: float = 0.6  # |Δφ + mean(D)·Δt| beyond this flags a slip (4σ of 3 cm/s Doppler at 1 Hz)
     fix: bool = True
     hold: bool = True
     sigma_hold: float = 0.002         # m, the held ambiguities
@@ -93,6 +93,22 @@ def antenna_state(mech, lever_frd, omega_b):
             r @ (st.v_ned() + c @ cross(omega_b, lever_frd)))
 
 
+def doppler_phase_slips(prev, rover, threshold=0.6):
+    """Satellites of ObsEpoch `rover` whose phase change since `prev` disagrees with the mean Doppler over the
+    interval by more than `threshold` cycles (receiver clock drift is in both and cancels)."""
+    out = set()
+    if prev is None or not 0.0 < rover.time - prev.time <= 5.0:
+        return out
+    dt = rover.time - prev.time
+    for i, sid in enumerate(rover.sats):
+        k = prev.row(sid)
+        if k is not None:
+            d = rover.phase[i] - prev.phase[k] + 0.5 * (rover.doppler[i] + prev.doppler[k]) * dt
+            if np.any(np.abs(d[np.isfinite(d)]) > threshold):
+                out.add(sid)
+    return out
+
+
 class TightFilter:
     """INS mechanization + error EKF augmented for DD code/phase and Doppler (see module docstring)."""
 
@@ -118,7 +134,7 @@ class TightFilter:
         self.t, self._f, self._cov_dt, self._nhc_t = t, None, 0.0, -math.inf
         self.omega_b = np.zeros(3)
         self._prev_rover = None
-        self.stats = {"epochs": 0, "fixed": 0, "slips": 0, "doppler_rejected": 0}
+        self.stats = {"epochs": 0, "fixed": 0, "slips": 0}
 
     @classmethod
     def from_ins(cls, ekf, base_pos, config=None):
@@ -195,20 +211,8 @@ class TightFilter:
 
     # ------------------------------------------------------------------ GNSS
     def _doppler_slips(self, rover):
-        """Satellites whose phase change disagrees with the mean Doppler over the epoch interval."""
-        prev, out = self._prev_rover, set()
-        self._prev_rover = rover
-        if prev is None or not 0.0 < rover.time - prev.time <= 5.0:
-            return out
-        dt = rover.time - prev.time
-        for i, sid in enumerate(rover.sats):
-            k = prev.row(sid)
-            if k is None:
-                continue
-            d = rover.phase[i] - prev.phase[k] + 0.5 * (rover.doppler[i] + prev.doppler[k]) * dt
-            if np.any(np.abs(d[np.isfinite(d)]) > self.c.slip_doppler_cycles):
-                out.add(sid)
-        return out
+        prev, self._prev_rover = self._prev_rover, rover
+        return doppler_phase_slips(prev, rover, self.c.slip_doppler_cycles)
 
     def _reindex(self, dd, h, flagged):
         reset = np.array([dd.slip[i] or dd.ref_slip.get(k[:2], False) or k[2] in flagged

@@ -77,6 +77,7 @@ class RawSimConfig:
     mp_phase: float = 0.002             # m
     mp_tau: float = 10.0                # s
     slip_rate: float = 1.0 / 900.0      # per satellite per second (rover); the base is clean
+    slip_flagged: float = 1.0           # probability that the receiver flags a slip (LLI); others pass silently
     masks: list = field(default_factory=list)
     seed: int = 0
 
@@ -89,6 +90,7 @@ class RawEpoch:
     antenna: np.ndarray       # true rover antenna ECEF [m]
     antenna_vel: np.ndarray   # ECEF m/s
     visible: list             # rover satellites tracked this epoch
+    slipped: list = field(default_factory=list)   # rover satellites with a cycle slip this epoch (flagged or not)
 
 
 @dataclass
@@ -132,6 +134,7 @@ class _Receiver:
     def __init__(self, bias, drift, rng):
         self.bias, self.drift, self.rng = bias, drift, rng
         self.amb, self.mp_code, self.mp_phase, self.tracked = {}, {}, {}, set()
+        self.slipped = []
 
     def tick(self, dt, drift_rw):
         self.bias += self.drift * dt
@@ -145,7 +148,7 @@ class _Receiver:
         return store[sid]
 
 
-def _observe(rx, sid, sv, pos, vel, t_dt, el, atmos, cfg, slip_rate, dt):
+def _observe(rx, sid, sv, pos, vel, el, atmos, cfg, slip_rate, dt):
     """One satellite's (code, phase, doppler, snr, lli) at receiver rx; sv = (sat pos, vel, clock, drift)."""
     s_pos, s_vel, s_clk, s_drift = sv
     los = s_pos - pos
@@ -163,7 +166,8 @@ def _observe(rx, sid, sv, pos, vel, t_dt, el, atmos, cfg, slip_rate, dt):
         lli = True
     elif rx.rng.random() < slip_rate * dt:
         rx.amb[sid] += float(rx.rng.choice([-3, -2, -1, 1, 2, 3]))
-        lli = True
+        lli = bool(rx.rng.random() < cfg.slip_flagged)
+        rx.slipped.append(sid)
     m_p = rx.markov(rx.mp_code, sid, cfg.mp_code * mp_scale, dt, cfg.mp_tau)
     m_f = rx.markov(rx.mp_phase, sid, cfg.mp_phase * mp_scale, dt, cfg.mp_tau)
     code = rng_ + clk + iono + tropo + m_p + rx.rng.normal(0.0, cfg.code_sigma * scale)
@@ -246,17 +250,17 @@ def simulate_raw(times, ant_pos, ant_vel, nav, origin, axes, config=None):
             cand[sid] = (el, az)
         vis = _visible_after_masks(t, cand, cfg)
         rover.tracked &= vis
-        base_rows, rover_rows = [], []
+        base_rows, rover_rows, rover.slipped = [], [], []
         for sid, (sb, sr, el) in states.items():
-            mi, mt = 1.0 / max(np.sin(el), 0.1), 1.0 / max(np.sin(el), 0.1)
-            i_b, t_b = cfg.iono_zenith_m * mi, cfg.tropo_zenith_m * mt
-            base_rows.append((sid, _observe(base, sid, sb, base_pos, np.zeros(3), t, el, (i_b, t_b), cfg, 0.0, dt)))
+            mi = 1.0 / max(np.sin(el), 0.1)          # simple slant mapping for both delays
+            i_b, t_b = cfg.iono_zenith_m * mi, cfg.tropo_zenith_m * mi
+            base_rows.append((sid, _observe(base, sid, sb, base_pos, np.zeros(3), el, (i_b, t_b), cfg, 0.0, dt)))
             if sid in vis:
                 g = grad[sid] * dist * 1e-6
-                atm = (i_b + cfg.iono_ppm * g[0] * mi, t_b + cfg.tropo_ppm * g[1] * mt)
-                rover_rows.append((sid, _observe(rover, sid, sr, pos, vel, t, el, atm, cfg, cfg.slip_rate, dt)))
+                atm = (i_b + cfg.iono_ppm * g[0] * mi, t_b + cfg.tropo_ppm * g[1] * mi)
+                rover_rows.append((sid, _observe(rover, sid, sr, pos, vel, el, atm, cfg, cfg.slip_rate, dt)))
         epochs.append(RawEpoch(t, _epoch(cfg, tow, rover_rows), _epoch(cfg, tow, base_rows), pos.copy(),
-                               vel.copy(), sorted(vis)))
+                               vel.copy(), sorted(vis), list(rover.slipped)))
     return RawSim(epochs, base_pos, origin, axes, cfg)
 
 

@@ -2,8 +2,9 @@
 
 The mems_field run's IMU and receiver fixes drive the loosely coupled InsEkf (the shipped ins backend's core)
 from the start; at `handover` s (aligned, RTK fixed) a TightFilter takes over a copy of its INS state (SPEC §7.9
-loose → tight) and from then on fuses the simulated rover/base observations instead of fixes. Inside the window
-the sky is degraded (gnss_raw_sim.SkyMask); the loose filter keeps getting what a receiver would give there:
+loose → tight) and from then on fuses the simulated rover/base observations instead of fixes (half the random
+cycle slips come without LLI). Inside the window the sky is degraded (gnss_raw_sim.SkyMask); the loose filter
+keeps getting what a receiver would give there:
   'three_sat' – only 3 GPS satellites above the mask: no receiver fix at all (INS-only with its constraints);
   'float'     – a 2 s full blockage (every satellite loses lock), then a tree line hiding the west half of the sky
                 below 45° for 60 s with the receiver in RTK float: its fixes are a float-only kinematic DD filter
@@ -13,6 +14,7 @@ Errors are of the antenna point (truth: simulator base_link + attitude × lever 
 observation epochs.
 """
 import math
+import time
 from dataclasses import dataclass
 
 import numpy as np
@@ -50,7 +52,7 @@ def sky(kind, window, seed):
         masks = [SkyMask(t0, t1, keep=3)]
     else:
         masks = [SkyMask(t0 - 2.0, t0, keep=0), SkyMask(t0, t1, az_deg=(180.0, 360.0), max_el_deg=45.0)]
-    return RawSimConfig(seed=seed, masks=masks)
+    return RawSimConfig(seed=seed, masks=masks, slip_flagged=0.5)     # half the slips pass without LLI
 
 
 def _enu_cov(cov_ecef, axes):
@@ -83,7 +85,6 @@ def float_fixes(raw, nav, start, window):
 
 def run_coupled(run, nav, kind="three_sat", window=(120.0, 180.0), handover=60.0, seed=0, streams=None):
     """CoupledRun of a SimRun (mems_field-style) with the sky of `kind` (see module docstring)."""
-    import time
     from agnav_sim_eval.bench.ins import sim_streams
     raw = simulate_run_raw(run, nav, sky(kind, window, seed))
     gyro, accel, gnss, mounts = streams or sim_streams(run)
