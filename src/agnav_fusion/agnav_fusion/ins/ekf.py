@@ -162,7 +162,8 @@ class InsEkf:
         pos[2, 2] = self.p[em.H, em.H]
         pos += self._fix_drift_cov
         m = ENU_TO_NED.T @ ned_to_c(alpha).T       # C -> ENU
-        tilt = 0.5 * (self.p[em.TX, em.TX] + self.p[em.TY, em.TY])
+        tx, ty, c = self.p[em.TX, em.TX], self.p[em.TY, em.TY], self.p[em.TX, em.TY]
+        tilt = 0.5 * (tx + ty) + math.hypot(0.5 * (tx - ty), c)   # largest: roll and pitch are rotated C-axis tilts
         return NavSolution(self.t, lat, st.lon, st.h, cn @ (T @ st.v), roll, pitch,
                            math.remainder(yaw_c - alpha, 2.0 * math.pi), self.omega_b.copy(), cn @ c_bc, pos,
                            m @ self.p[V3_BLOCK] @ m.T,

@@ -26,7 +26,7 @@ class ErrorModelSettings:
 
     accel_vrw: float = 0.003        # accelerometer white noise [m/s^2/sqrt(Hz)]
     gyro_arw: float = 3.0e-4         # gyro white noise [rad/s/sqrt(Hz)]
-    accel_bias_sigma: float = 0.01   # steady-state GM sigma of the accelerometer bias state [m/s^2]
+    accel_bias_sigma: float = 0.03   # steady-state GM sigma of the accelerometer bias state [m/s^2] (scale errors too)
     gyro_bias_sigma: float = 2.0e-4  # steady-state GM sigma of the gyro bias state [rad/s]
     accel_bias_tau: float = 600.0    # [s]
     gyro_bias_tau: float = 600.0     # [s]
