@@ -3,7 +3,11 @@
 
 State x = [theta, gyro bias b, lagged angle theta_l]; theta' = omega_meas - b, b' = w_b,
 theta_l' = (theta - theta_l) / tau; the inclinometer (minus its lagged acceleration error) measures theta_l.
-Angles rad, rates rad/s, any consistent sign convention.
+The reading's variance grows with what the compensation may get wrong: the acceleration estimate's own variance,
+the lag of a sensor whose time constant is off by tau_rel_sigma (error tau_rel_sigma x (a - lagged a)), and the
+scale error of the reading, all correlated over the lag (taken as white noise of the same low-frequency density:
+variance x 2 tau / dt per sample); the zero error the inclinometer carries is added to the reported variance (nothing
+observes it). Angles rad, rates rad/s, any consistent sign convention.
 """
 import math
 from dataclasses import dataclass
@@ -22,6 +26,9 @@ class AttitudeKFSettings:
     init_bias_sigma: float = 0.01   # rad/s, initial gyro bias uncertainty (~0.6 deg/s)
     init_angle_sigma: float = 0.05  # rad
     gate: float = 16.0              # squared Mahalanobis gate for inclinometer samples (1 dof)
+    tau_rel_sigma: float = 0.5      # relative spread of the true time constant about tau (units differ, D5R 0.3-1.5 s)
+    scale_sigma: float = 0.03       # relative scale error of the reading (D5R 3 %)
+    zero_sigma: float = 0.003       # rad, zero error left after calibration (reported, not estimated)
 
 
 class AttitudeKF:
@@ -40,9 +47,10 @@ class AttitudeKF:
         self.x = np.array([incl, 0.0, incl])
         self.P = np.diag([s.init_angle_sigma ** 2, s.init_bias_sigma ** 2, s.init_angle_sigma ** 2])
 
-    def update(self, rate, incl, dt, accel_error=0.0):
+    def update(self, rate, incl, dt, accel_error=0.0, accel_var=0.0):
         """Propagate with the gyro rate over dt, then fuse incl (rad, or None) whose acceleration error
-        accel_error (rad, the unlagged a/g term the inclinometer adds) is removed through the same lag."""
+        accel_error (rad, the unlagged a/g term the inclinometer adds; variance accel_var) is removed through the
+        same lag."""
         s = self.settings
         if self.x is None:
             if incl is None:
@@ -55,10 +63,14 @@ class AttitudeKF:
         P[0, 0] += s.gyro_noise ** 2 * dt
         P[1, 1] += s.bias_walk ** 2 * dt
         x[0] += rate * dt
+        lag_miss = s.tau_rel_sigma * (accel_error - self._acc_lag)
         self._acc_lag += a * (accel_error - self._acc_lag)
         x_pred, P_pred = x, P
         if incl is not None:
-            x, P, d2 = kalman.update_state(x, P, 2, incl - self._acc_lag, s.incl_noise ** 2, s.gate)
+            # coloured errors (correlated over the lag): as white noise of the same low-frequency density
+            coloured = accel_var + lag_miss ** 2 + (s.scale_sigma * incl) ** 2
+            r = s.incl_noise ** 2 + coloured * 2.0 * max(s.tau, dt) / max(dt, 1e-3)
+            x, P, d2 = kalman.update_state(x, P, 2, incl - self._acc_lag, r, s.gate)
             self.rejected += d2 > s.gate
         self.x, self.P = x, P
         if self.log is not None:
@@ -71,7 +83,7 @@ class AttitudeKF:
 
     @property
     def variance(self):
-        return math.inf if self.P is None else float(self.P[0, 0])
+        return math.inf if self.P is None else float(self.P[0, 0]) + self.settings.zero_sigma ** 2
 
     @property
     def bias(self):

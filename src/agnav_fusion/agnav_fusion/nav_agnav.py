@@ -48,10 +48,11 @@ class AgnavEstimator:
         droll, dpitch, dyaw = euler_rates(gyro, roll0, -pitch0)
         rate_cw = -dyaw
         lever_acc = self._lever_acceleration(gyro, prev, dt)
-        acc = self._kinematic_acceleration(gyro, lever_acc) if s.accel_compensation else np.zeros(3)
+        acc, acc_var = self._kinematic_acceleration(gyro, lever_acc) if s.accel_compensation else (np.zeros(3),
+                                                                                                  np.zeros(2))
         # a pendulum reads roll + a_y/g and (REP-103) pitch - a_x/g, i.e. thesis nose-up pitch + a_x/g
-        roll = self.roll_filter.update(droll, roll_incl, dt, acc[1] / GRAVITY)
-        pitch = self.pitch_filter.update(-dpitch, pitch_incl, dt, acc[0] / GRAVITY)
+        roll = self.roll_filter.update(droll, roll_incl, dt, acc[1] / GRAVITY, acc_var[1] / GRAVITY ** 2)
+        pitch = self.pitch_filter.update(-dpitch, pitch_incl, dt, acc[0] / GRAVITY, acc_var[0] / GRAVITY ** 2)
         self.raw_heading += rate_cw * dt
         wheel = self.wheel[1:] if self.wheel and 0 <= t - self.wheel[0] <= s.wheel_timeout else None
         self.wheel = None if wheel else self.wheel
@@ -85,7 +86,7 @@ class AgnavEstimator:
             y, S, H, R = ekf.zero_rate_innovation(rate_cw, s.still_rate_sigma ** 2)
             ekf.update(y, S, H, R)
         if wheel is not None:
-            self._fuse(ekf.speed_innovation(*wheel), counter="wheel_gated")
+            self._fuse(ekf.wheel_innovation(*wheel), counter="wheel_gated")
 
     def _lever_acceleration(self, gyro, prev, dt):
         """Body (FLU) acceleration of the attitude package relative to base_link: alpha x r + w x (w x r), alpha
@@ -97,16 +98,16 @@ class AgnavEstimator:
 
     def _kinematic_acceleration(self, gyro, lever_acc):
         """Body (FLU) acceleration of the inclinometer: forward (accelerometer or A state), centripetal V*wz,
-        and the lever-arm terms."""
+        and the lever-arm terms; -> (acceleration, variances of its forward and lateral parts)."""
         ekf = self.ekf
-        speed = ekf.x[IV] if ekf.x is not None else 0.0
         if ekf.x is None:
-            accel = 0.0
-        elif ekf.accel_mode:  # the fixes' speed change, smoothed: pitch-independent
-            accel = self.fix_accel
+            return lever_acc, np.zeros(2)
+        if ekf.accel_mode:  # the fixes' speed change, smoothed: pitch-independent
+            accel, accel_var = self.fix_accel, 0.0
         else:
-            accel = ekf.x[IA]
-        return np.array([accel, speed * gyro[2], 0.0]) + lever_acc
+            accel, accel_var = ekf.x[IA], ekf.P[IA, IA]
+        acc = np.array([accel, ekf.x[IV] * gyro[2], 0.0]) + lever_acc
+        return acc, np.array([accel_var, ekf.P[IV, IV] * gyro[2] ** 2])
 
     # ---- GNSS fix at its epoch ------------------------------------------------------------------------
     def white_fix_covariance(self, cov2):

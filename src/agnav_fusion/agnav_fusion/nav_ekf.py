@@ -2,7 +2,8 @@
 (agnav extension of SPEC §6.3: replaces Kise/drift LSM + dead reckoning with one filter giving covariances).
 
 Thesis conventions: state x = [X east, Y north, phi heading cw from north, b yaw-gyro bias, V speed, A accel,
-BX, BY receiver bias, beta crab residual, k crab per sin(roll), rho terrain roll]; the course over ground is
+BX, BY receiver bias, beta crab residual, k crab per sin(roll), rho terrain roll, w wheel-speed scale error];
+the course over ground is
 phi + crab, crab = beta + k sin(rho) (non-holonomic constraint with side slip: the vehicle moves along its heading
 turned by the crab), X' = V sin(phi + crab), Y' = V cos(phi + crab) (as 5.12-5.13), phi' = r - b (r clockwise gyro
 rate). A tractor slides downhill on a cross slope: the slide k sin(rho) follows the terrain roll rho (the estimated
@@ -21,8 +22,8 @@ import numpy as np
 
 from agnav_fusion import kalman
 
-IX, IY, IPHI, IB, IV, IA, IBX, IBY, IC, IK, IR = range(11)
-N = 11
+IX, IY, IPHI, IB, IV, IA, IBX, IBY, IC, IK, IR, IW = range(12)
+N = 12
 DIAGN = np.diag_indices(N)
 
 
@@ -43,6 +44,8 @@ class NavEKFSettings:
     crab_gain_walk: float = 0.002  # rad/sqrt(s), change of that gain (soil)
     crab_roll_tau: float = 3.0     # s, lag from the estimated roll to the terrain roll driving the crab (no sway)
     slip_noise: float = 0.005      # m/sqrt(s) unmodelled position motion (slip, sway)
+    wheel_scale_sigma: float = 0.1  # wheel/radar speed scale error (wheel slip, rolling radius): reads V (1 + w)
+    wheel_scale_walk: float = 0.002  # 1/sqrt(s), change of that scale (soil, load)
     init_heading_sigma: float = 0.2  # rad, heading from a first course over ground (before the chord)
     init_bias_sigma: float = 0.005  # rad/s
     init_speed_sigma: float = 0.5    # m/s, speed at the first fix
@@ -75,7 +78,7 @@ class NavEKF:
 
     def initialise(self, xy, xy_cov, heading, speed=0.0):
         s = self.settings
-        self.x = np.array([xy[0], xy[1], heading, 0.0, speed, 0.0, 0.0, 0.0, 0.0, s.crab_roll_gain, 0.0])
+        self.x = np.array([xy[0], xy[1], heading, 0.0, speed, 0.0, 0.0, 0.0, 0.0, s.crab_roll_gain, 0.0, 0.0])
         self.P = np.zeros((N, N))
         self.P[:2, :2] = np.asarray(xy_cov) + self.gnss_bias_var * np.eye(2)
         self.P[IBX, IBX] = self.P[IBY, IBY] = self.gnss_bias_var
@@ -84,6 +87,7 @@ class NavEKF:
         self.P[IPHI:IBX, IPHI:IBX] = np.diag([s.init_heading_sigma, s.init_bias_sigma, s.init_speed_sigma, a_sigma]) ** 2
         self.P[IC, IC] = s.crab_sigma ** 2
         self.P[IK, IK] = s.crab_gain_sigma ** 2
+        self.P[IW, IW] = s.wheel_scale_sigma ** 2
 
     def set_accel_mode(self, on):
         """Switch A between the Gauss-Markov acceleration and the accelerometer bias (a new, uncorrelated start)."""
@@ -151,7 +155,7 @@ class NavEKF:
         P = F @ self.P @ F.T
         P[DIAGN] += (s.slip_noise ** 2 * dt, s.slip_noise ** 2 * dt, s.rate_noise ** 2 * dt, s.bias_walk ** 2 * dt,
                      q_v * dt, q_a * dt, q_bias, q_bias, s.crab_sigma ** 2 * (1.0 - F[IC, IC] ** 2),
-                     s.crab_gain_walk ** 2 * dt, 0.0)
+                     s.crab_gain_walk ** 2 * dt, 0.0, s.wheel_scale_walk ** 2 * dt)
         self.P = P
         self.x = x
         if self.log is not None:
@@ -188,6 +192,14 @@ class NavEKF:
         H[0, IV] = 1.0
         R = np.array([[var]])
         y, S, d2 = kalman.innovation(self.x, self.P, np.array([speed]), H, R)
+        return y, S, d2, H, R
+
+    def wheel_innovation(self, speed, var):
+        """(y, S, d2, H, R) of a wheel or radar speed (m/s) with variance var: it reads V (1 + w)."""
+        H = np.zeros((1, N))
+        H[0, IV], H[0, IW] = 1.0 + self.x[IW], self.x[IV]
+        R = np.array([[var]])
+        y, S, d2 = kalman.innovation(self.x, self.P, np.array([speed]), H, R, h=H[0, IV] * self.x[IV])
         return y, S, d2, H, R
 
     def standstill_innovation(self, var):

@@ -46,7 +46,7 @@ class NavSensorModuleSettings:
     stationary_speed: float = 0.05            # m/s: slower fixes mark the vehicle still (yaw rate zero: gyro bias)
     standstill_sigma: float = 0.005           # m/s (and m/s^2): speed and acceleration of a vehicle at rest
     wheel_speed_sigma: float = 0.05           # m/s, floor of a wheel/radar speed's noise (agnav; /wheel/odometry)
-    wheel_slip_sigma: float = 0.03            # of the speed: slip and rolling-radius error of a wheel speed
+    wheel_slip_sigma: float = 0.03            # of the speed: slip changes about the EKF's learnt wheel scale
     wheel_timeout: float = 0.5                # s, an older wheel speed is not fused
     lever_rate_window: float = 0.1            # s of body rates averaged (centred) for the antenna lever velocity
     lever_rate_sigma: float = 0.02            # rad/s, error of that rate at the receiver's velocity epoch (sway)
