@@ -139,6 +139,8 @@ class AgnavEstimator:
             ekf.x, ekf.P = snap.nav[0].copy(), snap.nav[1].copy()
             if started:  # the gyro bias learnt standing still shifts once the vehicle moves
                 ekf.P[IB, IB] += s.motion_bias_sigma ** 2
+            if ekf.bias_dropped:
+                ekf.restart_bias()
         if first:
             pass
         elif not self.heading_known:
