@@ -11,7 +11,7 @@ Front end (what every estimator needs once):
 - NO_FIX and impossible fixes never reach the estimator; a covariance of type UNKNOWN becomes `unknown_fix_sigma`;
 - fix/velocity epoch pairing: a receiver publishes /gnss/fix before the /gnss/vel of the same epoch, so once a
   velocity has been seen a fix waits for its own up to `velocity_wait` s of IMU time; without /gnss/vel the
-  velocity of the fixes over the last `fix_velocity_baseline` m (at most FIX_HISTORY fixes back) is used;
+  velocity of the fixes over the last `fix_velocity_baseline` m (at most FIX_HISTORY_S back) is used;
 - the tilt source: inclinometer messages, or the accelerometer's gravity direction (`tilt_source: accelerometer`).
 The backend (NavSensorModule: estimator `agnav` or `thesis`; InsNavigation: `ins`) guards values and stamps,
 replays late fixes against its IMU history and keeps the covariances. Every backend gets the accelerometer's
@@ -26,8 +26,9 @@ from dataclasses import dataclass
 import numpy as np
 from agnav_common.geodesy import LocalTangentPlane
 
-VEL_MATCH_S = 0.1   # s, a /gnss/vel within this of a fix epoch is fused with it
-FIX_HISTORY = 10    # fixes kept for the fix-difference velocity
+VEL_MATCH_S = 0.1       # s, a /gnss/vel within this of a fix epoch is fused with it ...
+VEL_MATCH_PERIODS = 0.25  # ... and within this share of the fix interval (a 10 Hz fix never takes the last epoch's)
+FIX_HISTORY_S = 10.0    # s of fixes kept for the fix-difference velocity (slow 10 Hz runs still reach the baseline)
 STATUS_FIX = 0      # sensor_msgs/NavSatStatus: below this there is no position
 COVARIANCE_TYPE_UNKNOWN = 0
 
@@ -68,6 +69,8 @@ class NavigationPipeline:
         self.velocities = []     # (t, ENU velocity, variance or None) of recent /gnss/vel
         self.pending_fixes = []  # (t, enu, cov, deadline) waiting for their velocity
         self.recent_fixes = []   # (t, enu, cov) for the fix-difference velocity
+        self.fix_interval = math.inf  # s between the last two fix epochs
+        self.last_fix_t = None
         self.last_imu_t = 0.0
         self.configured_datum = len(s.datum) >= 3
         if self.configured_datum:
@@ -151,6 +154,9 @@ class NavigationPipeline:
         if self.plane is None:
             self._set_datum(lat, lon, alt, msg.header.stamp)
         t = stamp_seconds(msg.header)
+        if self.last_fix_t is not None and t > self.last_fix_t:
+            self.fix_interval = t - self.last_fix_t
+        self.last_fix_t = t
         enu = np.array(self.plane.to_enu(lat, lon, alt), dtype=float)
         if msg.position_covariance_type == COVARIANCE_TYPE_UNKNOWN:
             cov = np.eye(3) * self.settings.unknown_fix_sigma ** 2
@@ -162,17 +168,18 @@ class NavigationPipeline:
 
     # ---- fix / velocity pairing -----------------------------------------------------------------------
     def _velocity_at(self, t):
-        """(ENU velocity, its variance or None) of the /gnss/vel nearest the fix epoch t within VEL_MATCH_S, else
-        None."""
+        """(ENU velocity, its variance or None) of the /gnss/vel nearest the fix epoch t within VEL_MATCH_S and
+        VEL_MATCH_PERIODS fix intervals, else None."""
         near = min(self.velocities, key=lambda tv: abs(tv[0] - t), default=None)
-        return near[1:] if near is not None and abs(near[0] - t) <= VEL_MATCH_S else None
+        tolerance = min(VEL_MATCH_S, VEL_MATCH_PERIODS * self.fix_interval)
+        return near[1:] if near is not None and abs(near[0] - t) <= tolerance else None
 
     def _fix_velocity(self, t, enu, cov):
         """(ENU velocity, per-axis variance) from the latest earlier fix at least fix_velocity_baseline m away
         (variance: both fixes' horizontal variances over the time squared), else None."""
         base = next(((t0, p0, c0) for t0, p0, c0 in reversed(self.recent_fixes)
                      if t0 < t and np.hypot(*(enu[:2] - p0[:2])) >= self.settings.fix_velocity_baseline), None)
-        self.recent_fixes = (self.recent_fixes + [(t, enu, cov)])[-FIX_HISTORY:]
+        self.recent_fixes = [f for f in self.recent_fixes if f[0] >= t - FIX_HISTORY_S] + [(t, enu, cov)]
         if base is None or self.settings.fix_velocity_baseline <= 0:
             return None
         dt = t - base[0]
