@@ -4,12 +4,13 @@ from scipy.spatial.transform import Rotation
 from geometry_msgs.msg import TransformStamped
 from tf2_msgs.msg import TFMessage
 
+from agnav_common.message_factory import new_message
 from agnav_common.qos import LATCHED_QOS
 
 
 def make_transform(parent, child, stamp, xyz, quat):
     """TransformStamped parent->child with translation xyz and quaternion (x, y, z, w)."""
-    t = TransformStamped()
+    t = new_message(TransformStamped)
     t.header.stamp = stamp
     t.header.frame_id = parent
     t.child_frame_id = child
@@ -104,4 +105,6 @@ class TransformBroadcaster:
         self._pub = node.create_publisher(TFMessage, "/tf", 100)
 
     def send(self, transforms):
-        self._pub.publish(TFMessage(transforms=list(transforms)))
+        msg = new_message(TFMessage)
+        msg.transforms = list(transforms)
+        self._pub.publish(msg)

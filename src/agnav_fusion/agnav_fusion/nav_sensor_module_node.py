@@ -16,6 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 from agnav_common.diagnostics import ERROR, OK, WARN, Diagnostics
 from agnav_common.frames import quaternion_from_euler
+from agnav_common.message_factory import new_message
 from agnav_common.node_main import main_for
 from agnav_common.parameters import declare, descriptor, leaves
 from agnav_common.qos import LATCHED_QOS, PUBLISHER_QOS, subscribe_input
@@ -37,7 +38,7 @@ from agnav_fusion.pipeline import NavigationPipeline
 
 def imu_message(s, frame_id, max_yaw_variance=None):
     """sensor_msgs/Imu of a module state: orientation + covariance, bias-corrected rates, no acceleration."""
-    msg = Imu()
+    msg = new_message(Imu)
     msg.header.stamp = to_stamp(s.t)
     msg.header.frame_id = frame_id
     q = msg.orientation
@@ -56,7 +57,7 @@ def imu_message(s, frame_id, max_yaw_variance=None):
 def odometry_message(s, frames):
     """nav_msgs/Odometry of a module state: pose in map, twist in base_link (side slip in linear.y), both with
     covariance."""
-    odom = Odometry()
+    odom = new_message(Odometry)
     odom.header.stamp = to_stamp(s.t)
     odom.header.frame_id = frames["map"]
     odom.child_frame_id = frames["base"]
