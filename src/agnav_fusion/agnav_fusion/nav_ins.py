@@ -19,10 +19,9 @@ from agnav_common.input_guard import StreamClockSettings
 
 from agnav_fusion.front_end import InputGuard, InputGuardSettings, Overdue
 from agnav_fusion.ins import GnssSample, InsEkf, InsEkfSettings
-from agnav_fusion.ins.frames import FLU_TO_FRD, FastPlane, Mounts, base_link_state
+from agnav_fusion.ins.frames import FRD, FastPlane, Mounts, base_link_state
 from agnav_fusion.nav_settings import NavState
 
-FRD = np.diag(FLU_TO_FRD)   # FLU <-> FRD: flip y and z
 SKIP = ("lever_gnss_frd", "lever_base_frd", "initial_heading", "initial_heading_sigma", "guard.gnss_max_lead")  # TF / REP-103 / ekf
 
 

@@ -15,6 +15,9 @@ from .measurements import ENU_TO_NED
 from .mechanization import skew
 
 FLU_TO_FRD = np.diag([1.0, -1.0, -1.0])
+FRD = FLU_TO_FRD.diagonal().copy()   # FLU <-> FRD sign flips: x * FRD == x @ FLU_TO_FRD (per-sample paths)
+NED_TO_ENU = ENU_TO_NED.T.copy()
+_DIAG3 = np.arange(3, 6)
 
 
 @dataclass
@@ -91,20 +94,21 @@ class FastPlane:
 def base_link_state(sol, mounts, plane, rate_var=(0.0, 0.0, 0.0)):
     """BaseLinkState from an IMU-point NavSolution: moved to base_link by the mount (5-5-3, ω x l), attitude and
     covariances rotated to REP-103. plane: agnav_common LocalTangentPlane; rate_var: gyro white-noise variance."""
-    lat, lon, h = imu_to_point_position(sol.lat, sol.lon, sol.h, -mounts.lever_imu_frd, sol.c_b_ned)
+    c, lever = sol.c_b_ned, -mounts.lever_imu_frd
+    lat, lon, h = imu_to_point_position(sol.lat, sol.lon, sol.h, lever, c)
     position = np.array(plane.to_enu(math.degrees(lat), math.degrees(lon), h), dtype=float)
-    r_body_enu = ENU_TO_NED.T @ sol.c_b_ned @ FLU_TO_FRD          # base_link FLU -> ENU
-    v_ned = sol.v_ned + sol.c_b_ned @ cross(sol.omega_b, -mounts.lever_imu_frd)
+    r_body_enu = NED_TO_ENU @ (c * FRD)                  # base_link FLU -> ENU
+    v_ned = sol.v_ned + c @ cross(sol.omega_b, lever)
     # the mount lever turned by an attitude error moves base_link: δp = φ x (C l), φ ~ N(0, diag(att_var))
-    arm = skew(sol.c_b_ned @ -mounts.lever_imu_frd)
+    arm = NED_TO_ENU @ skew(c @ lever)
     pose_cov = np.zeros((6, 6))
-    pose_cov[:3, :3] = sol.pos_cov_enu + ENU_TO_NED.T @ arm @ np.diag(sol.att_var) @ arm.T @ ENU_TO_NED
-    pose_cov[3:, 3:] = np.diag(sol.att_var)
+    pose_cov[:3, :3] = sol.pos_cov_enu + (arm * sol.att_var) @ arm.T
+    pose_cov[_DIAG3, _DIAG3] = sol.att_var
     twist_cov = np.zeros((6, 6))
     twist_cov[:3, :3] = r_body_enu.T @ sol.vel_cov_enu @ r_body_enu
-    twist_cov[3:, 3:] = np.diag(sol.gyro_bias_var + np.asarray(rate_var, dtype=float))
+    twist_cov[_DIAG3, _DIAG3] = sol.gyro_bias_var + np.asarray(rate_var, dtype=float)
     return BaseLinkState(sol.t, position, np.array([sol.roll, -sol.pitch, wrap_angle(math.pi / 2 - sol.heading)]),
-                         symmetric(pose_cov), r_body_enu.T @ (ENU_TO_NED.T @ v_ned), FLU_TO_FRD @ sol.omega_b,
+                         symmetric(pose_cov), r_body_enu.T @ (NED_TO_ENU @ v_ned), FRD * sol.omega_b,
                          symmetric(twist_cov))
 
 

@@ -14,6 +14,7 @@ from agnav_common.frames import cross
 from . import earth, quaternion
 
 T = np.diag([1.0, -1.0, -1.0])
+TD = T.diagonal().copy()   # x * TD == T @ x (per-sample paths)
 
 
 def skew(v):
@@ -23,11 +24,14 @@ def skew(v):
 
 def rotation(phi):
     """exp([phi x]) (Rodrigues)."""
-    a = math.sqrt(phi[0] ** 2 + phi[1] ** 2 + phi[2] ** 2)
-    k = skew(phi)
-    if a < 1e-9:
-        return np.eye(3) + k + 0.5 * k @ k
-    return np.eye(3) + math.sin(a) / a * k + (1.0 - math.cos(a)) / (a * a) * k @ k
+    x, y, z = float(phi[0]), float(phi[1]), float(phi[2])
+    a2 = x * x + y * y + z * z
+    a = math.sqrt(a2)
+    sa, ca = (1.0, 0.5) if a < 1e-9 else (math.sin(a) / a, (1.0 - math.cos(a)) / a2)
+    d = 1.0 - ca * a2                     # [phi x]^2 = phi phi^T - a^2 I
+    return np.array([[d + ca * x * x, ca * x * y - sa * z, ca * x * z + sa * y],
+                     [ca * x * y + sa * z, d + ca * y * y, ca * y * z - sa * x],
+                     [ca * x * z - sa * y, ca * y * z + sa * x, d + ca * z * z]])
 
 
 def orthonormalize(c):
@@ -125,11 +129,11 @@ class Mechanization:
         omega = earth.earth_rate_c(lat, alpha)
         c_bc = s.c_b_cbar()
         # steps 3-5: body rotation relative to C, quaternion update (5-3-7..10)
-        theta_b = c_bc.T @ (T @ ((rho + omega) * dt))
+        theta_b = c_bc.T @ (TD * ((rho + omega) * dt))
         s.q = quaternion.rotate_increment(s.q, (np.asarray(gyro_frd) - self.gyro_bias) * dt - theta_b)
         # steps 6-7: specific force into C, velocity with Coriolis and gravity (5-3-14, 5-3-15)
         c_bc = quaternion.to_dcm(s.q)
-        a_c = T @ (c_bc @ (np.asarray(accel_frd) - self.accel_bias))
+        a_c = TD * (c_bc @ (np.asarray(accel_frd) - self.accel_bias))
         v_old = s.v
         s.v = v_old + (a_c - cross(rho + 2.0 * omega, v_old) + earth.gravity_c(lat, s.h, alpha)) * dt
         # steps 8-9: transport rate at mid-interval velocity, C_E^C and height (5-3-16..22)
