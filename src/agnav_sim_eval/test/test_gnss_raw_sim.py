@@ -86,13 +86,15 @@ def test_tight_filter_converges_and_bridges_three_satellites(nav):
 
 def test_jacobians_follow_the_ins_conventions(nav):
     from agnav_fusion.gnss_raw.tight import TightFilter, antenna_state
-    from agnav_fusion.ins import InsEkfSettings, InsState, Mechanization
+    from agnav_fusion.ins import InsEkf, InsEkfSettings, InsState, Mechanization
     from agnav_fusion.ins import error_model as em
     from agnav_fusion.gnss_raw.geometry import enu_basis
     mech = Mechanization(InsState.from_geodetic(np.radians(36.0), np.radians(139.6), 50.0, 0.0, 0.0, 0.5,
                                                 (1.0, 1.0, 0.0)))
     s = InsEkfSettings(lever_gnss_frd=(0.0, 0.0, -2.0))
-    f = TightFilter(mech, np.eye(16) * 1e-4, s, np.zeros(3), t=0.0)
+    ins = InsEkf(s)
+    ins.adopt(mech, np.eye(16) * 1e-4, t=0.0)
+    f = TightFilter(ins, np.zeros(3))
     jp, jv = f.jacobians()
     east, north, up = enu_basis(antenna_state(mech, f.lever, np.zeros(3))[0])
     assert np.allclose(jp[:, em.H], up, atol=1e-6)                         # δh > 0: antenna computed too high

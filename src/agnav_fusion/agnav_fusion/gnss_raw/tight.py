@@ -110,91 +110,87 @@ def doppler_phase_slips(prev, rover, threshold=0.6):
 
 
 class TightFilter:
-    """INS mechanization + error EKF augmented for DD code/phase and Doppler (see module docstring)."""
+    """INS error EKF (an InsEkf's mechanization, propagation and feedback) augmented for DD code/phase and Doppler
+    (see module docstring)."""
 
-    def __init__(self, mech, p_ins, settings, base_pos, config=None, nhc=None, crab=0.0, t=None):
-        """mech: ins Mechanization (taken over); p_ins: its 16x16 (or 17x17 with crab) error covariance;
-        settings: InsEkfSettings (error model, lever arms, covariance interval); nhc: ins NonHolonomic or None."""
-        self.mech, self.s, self.c = mech, settings, config or TightConfig()
-        self.lever = np.asarray(settings.lever_gnss_frd, float)
+    def __init__(self, ins, base_pos, config=None):
+        """ins: an InsEkf holding the INS state (taken over; its extension API propagates and feeds back the INS
+        error states of this filter's augmented P); base_pos: ECEF base antenna [m]."""
+        self.ins, self.s, self.c = ins, ins.s, config or TightConfig()
+        self.lever = np.asarray(self.s.lever_gnss_frd, float)
         self.base_pos = np.asarray(base_pos, float)
-        self.nhc, self.crab = nhc, crab
-        n = len(p_ins)
+        n = ins.n_states
         self.p = np.zeros((N_CORE, N_CORE))
-        self.p[:n, :n] = p_ins
+        self.p[:n, :n] = ins.p
         if n <= CRAB:
             self.p[CRAB, CRAB] = 1e-6
         self.p[DRIFT, DRIFT] = self.c.sigma_drift_init ** 2
         self.x_drift, self.drift_ok = 0.0, False
         self.amb = np.zeros(0)
         self.keys, self.refs = [], {}
-        self.psd = np.zeros(N_CORE)
-        self.psd[:em.N_STATES] = settings.error.psd()
-        self.psd[DRIFT] = self.c.sigma_drift_rate ** 2
-        self.t, self._f, self._cov_dt, self._nhc_t = t, None, 0.0, -math.inf
-        self.omega_b = np.zeros(3)
+        self._cov_dt, self._nhc_t = 0.0, -math.inf
         self._prev_rover = None
         self.stats = {"epochs": 0, "fixed": 0, "slips": 0}
 
     @classmethod
     def from_ins(cls, ekf, base_pos, config=None):
-        """Hand-over from a loosely coupled InsEkf (SPEC §7.9 loose → tight): mechanization, error covariance and
-        crab copied; the clock drift and ambiguities start at the first epoch ((5-8-1)–(5-8-3))."""
-        f = cls(copy.deepcopy(ekf.mech), ekf.p.copy(), ekf.s, base_pos, config, ekf.nhc, ekf.crab, ekf.t)
-        f.omega_b = ekf.omega_b.copy()
-        return f
+        """Hand-over from a loosely coupled InsEkf (SPEC §7.9 loose → tight): its export_state() (mechanization,
+        error covariance, crab) adopted by a fresh InsEkf; the clock drift and ambiguities start at the first epoch
+        ((5-8-1)–(5-8-3))."""
+        ins = type(ekf)(ekf.s)
+        ins.adopt(**ekf.export_state())
+        return cls(ins, base_pos, config)
 
-    # ------------------------------------------------------------------ INS
+    def export_state(self):
+        """Hand-back (tight → loose, InsEkf.adopt): the INS part of the state and its covariance."""
+        out = self.ins.export_state()
+        out["p"] = self.p[:N_CORE - 1, :N_CORE - 1].copy()
+        return out
+
+    @property
+    def mech(self):
+        return self.ins.mech
+
+    @property
+    def t(self):
+        return self.ins.t
+
     @property
     def n(self):
         return N_CORE + len(self.amb)
 
+    # ------------------------------------------------------------------ INS
     def add_imu(self, t, gyro_frd, accel_frd):
-        dt = t - self.t
-        rho, omega, a_c, c_bc = self.mech.step(gyro_frd, accel_frd, dt)
-        self.omega_b = np.asarray(gyro_frd) - self.mech.gyro_bias
-        self._f, self.t = (rho, omega, a_c, c_bc), t
-        self._cov_dt += dt
+        self._cov_dt += self.ins.step(t, gyro_frd, accel_frd)
         if self._cov_dt >= self.s.covariance_interval:
             self._propagate()
-        if self.nhc is not None and t - self._nhc_t >= self.nhc.s.interval:
+        nhc = self.ins.nhc
+        if nhc is not None and t - self._nhc_t >= nhc.s.interval:
             self._nhc_t = t
             self._propagate()
             st = self.mech.state
-            lin = self.nhc.linearize(st.c_b_cbar(), st.v, self.omega_b, self.crab, self.n)
-            s = lin.h @ self.p @ lin.h.T + lin.r
-            self._apply(*kalman.update(np.zeros(self.n), self.p, lin.z, s, lin.h, lin.r))
+            lin = nhc.linearize(st.c_b_cbar(), st.v, self.ins.omega_b, self.ins.crab, self.n)
+            if self.ins.gated(lin, self.p):
+                self._apply(*kalman.update(np.zeros(self.n), self.p, lin.z, lin.h @ self.p @ lin.h.T + lin.r,
+                                           lin.h, lin.r))
 
     def _propagate(self):
         dt, self._cov_dt = self._cov_dt, 0.0
-        if dt <= 0.0 or self._f is None:
-            return
-        st = self.mech.state
-        rho, omega, a_c, c_bc = self._f
-        f = em.dynamics(self.s.error, st.v, a_c, rho, omega, em.body_to_c(c_bc), st.lat, st.h, st.alpha)
-        phi = np.eye(self.n)
-        phi[:em.N_STATES, :em.N_STATES] += f * dt
-        q = np.concatenate([self.psd, np.full(len(self.amb), self.c.sigma_amb_rate ** 2)]) * dt
-        if self.nhc is not None:
-            a = min(dt / self.nhc.s.crab_tau, 1.0)
-            phi[CRAB, CRAB] = 1.0 - a
-            self.crab *= 1.0 - a
-            q[CRAB] = 2.0 * a * self.nhc.s.crab_var(st.euler()[0])
-        self.p = phi @ self.p @ phi.T + np.diag(q)
+        if dt > 0.0:
+            q = np.zeros(self.n - self.ins.n_states)
+            q[DRIFT - self.ins.n_states] = self.c.sigma_drift_rate ** 2
+            q[N_CORE - self.ins.n_states:] = self.c.sigma_amb_rate ** 2
+            self.p = self.ins.propagate_covariance(self.p, dt, q)
 
     def _apply(self, x, p):
-        """Closed loop: INS errors and crab fed back and reset; drift and ambiguities are total states."""
-        feedback.apply(self.mech, x[:em.N_STATES])
-        self.crab -= x[CRAB]
+        """Closed loop: INS errors and crab fed back and reset (InsEkf.feedback); drift and ambiguities are
+        total states."""
+        self.p = self.ins.feedback(x, p)
         self.x_drift += x[DRIFT]
         self.amb = self.amb + x[N_CORE:]
-        j = feedback.azimuth_reset_jacobian(x[em.GAMMA], x[em.BETA], self.n)
-        p = j @ p @ j.T
-        p[em.BETA, em.BETA] = 0.5 * p[em.GAMMA, em.GAMMA] ** 2 + 1e-12
-        self.p = 0.5 * (p + p.T)
 
     def antenna(self):
-        return antenna_state(self.mech, self.lever, self.omega_b)
+        return antenna_state(self.mech, self.lever, self.ins.omega_b)
 
     def jacobians(self):
         """(J_pos, J_vel) 3 x n: antenna ECEF position / velocity error per state (through feedback.apply)."""
@@ -205,7 +201,7 @@ class TightFilter:
             x = np.zeros(em.N_STATES)
             x[i] = STEP[i]
             feedback.apply(m, x)
-            p1, v1 = antenna_state(m, self.lever, self.omega_b)
+            p1, v1 = antenna_state(m, self.lever, self.ins.omega_b)
             jp[:, i], jv[:, i] = (p0 - p1) / STEP[i], (v0 - v1) / STEP[i]
         return jp, jv
 

@@ -8,11 +8,15 @@ gating, Joseph-form update with closed-loop correction, outage coasting and heal
 straight runs and bounds outage drift; fix-difference velocities only seed the in-motion alignment (they lag and
 repeat the fixes); a filter whose fixes stay rejected re-aligns from them.
 """
+import copy
 import math
 from collections import deque
 
 import numpy as np
+from scipy.linalg import block_diag
 from scipy.stats import chi2
+
+from agnav_fusion import kalman
 
 from . import earth, error_model as em, feedback, quaternion
 from .constraints import CRAB, NonHolonomic
@@ -183,6 +187,75 @@ class InsEkf:
             out["gnss_age_s"] = self.gnss_age()
         return out
 
+    # ------------------------------------------------- extension API (augmented filters, hand-over)
+    # An augmented filter (gnss_raw.tight) owns a P whose first n_states rows are these error states (16 + crab).
+    def step(self, t, gyro_frd, accel_frd):
+        """Mechanization only, up to t (no covariance, constraint or GNSS processing)."""
+        dt, self.t = t - self.t, t
+        self._mechanize(np.asarray(gyro_frd, dtype=float), np.asarray(accel_frd, dtype=float), dt)
+        return dt
+
+    def propagate_covariance(self, p, dt, q_extra=()):
+        """Φ P Φᵀ + U Δt (5-9-4, 5-6-2), Φ = I + F Δt over dt at the last mechanization step; crab: first-order
+        Gauss-Markov with its steady σ from the roll (the crab estimate decays with it). Rows beyond n_states:
+        Φ = I, white noise `q_extra` [unit²/s]."""
+        st = self.mech.state
+        rho, omega, a_c, c_bc = self._f
+        f = em.dynamics(self.s.error, st.v, a_c, rho, omega, em.body_to_c(c_bc), st.lat, st.h, st.alpha)
+        phi = np.eye(len(p))
+        phi[:em.N_STATES, :em.N_STATES] += f * dt
+        q = np.concatenate([self.psd, np.asarray(q_extra, dtype=float)]) * dt
+        if self.nhc is not None:
+            a = min(dt / self.s.nhc.crab_tau, 1.0)
+            phi[CRAB, CRAB] = 1.0 - a
+            self.crab *= 1.0 - a
+            q[CRAB] = 2.0 * a * self.s.nhc.crab_var(st.euler()[0])
+        p = phi @ p @ phi.T
+        p[np.diag_indices_from(p)] += q
+        return p
+
+    def feedback(self, x, p):
+        """Closed loop: x[:n_states] fed back into the mechanization and crab (then zero); returns P after the
+        azimuth reset (rows beyond n_states: extra states, untouched by the feedback)."""
+        feedback.apply(self.mech, x[:em.N_STATES])
+        if self.nhc is not None:
+            self.crab -= x[CRAB]
+        j = feedback.azimuth_reset_jacobian(x[em.GAMMA], x[em.BETA], len(p))
+        p = j @ p @ j.T
+        p[em.BETA, em.BETA] = 0.5 * p[em.GAMMA, em.GAMMA] ** 2 + 1e-12
+        return 0.5 * (p + p.T)
+
+    def gated(self, lin, p=None):
+        """True (and counted) if the linearised observation's innovation passes the chi-square gate under P."""
+        p = self.p if p is None else p
+        nis = float(lin.z @ np.linalg.solve(lin.h @ p @ lin.h.T + lin.r, lin.z))
+        if nis > self._gate(len(lin.z)):
+            return not self._reject(lin.name)
+        n, total = self.stats["nis"].get(lin.name, (0, 0.0))
+        self.stats["nis"][lin.name] = (n + 1, total + nis)
+        self._stat("accepted", lin.name)
+        return True
+
+    def export_state(self):
+        """Hand-over (SPEC §7.9): copies of the mechanization, error covariance (n_states), crab, time and rate."""
+        return {"mech": copy.deepcopy(self.mech), "p": self.p.copy(), "crab": self.crab, "t": self.t,
+                "omega_b": self.omega_b.copy()}
+
+    def adopt(self, mech, p, crab=0.0, t=None, omega_b=None):
+        """Take over an INS state (e.g. export_state() of a tightly coupled filter's INS): P's first n_states
+        rows/columns (a 16x16 P gets the crab's steady variance); the solution history restarts here."""
+        self.mech, self.crab, self.t = mech, crab, t
+        n, k = em.N_STATES + (self.nhc is not None), min(len(p), em.N_STATES + (self.nhc is not None))
+        self.p = np.zeros((n, n))
+        self.p[:k, :k] = np.asarray(p)[:k, :k]
+        if k < n:
+            self.p[CRAB, CRAB] = self.s.nhc.crab_var(mech.state.euler()[0])
+        self.omega_b = np.zeros(3) if omega_b is None else np.asarray(omega_b, dtype=float).copy()
+        self._f, self._cov_dt, self._gap_var, self._pending, self._corr = None, 0.0, None, [], np.zeros(6)
+        self._history.clear()
+        self._snapshot()
+        self._last_accept_t = t
+
     # ----------------------------------------------------------------- internals
     def _gate(self, dof):
         if dof not in self._gates:
@@ -221,41 +294,26 @@ class InsEkf:
         return True
 
     def _propagate(self, gyro, accel, dt):
-        mech = self.mech
-        rho, omega, a_c, c_bc = mech.step(gyro, accel, dt)
-        self.omega_b = gyro - mech.gyro_bias
-        self._f = (rho, omega, a_c, c_bc)
+        self._mechanize(gyro, accel, dt)
         self._cov_dt += dt
         if self._cov_dt >= self.s.covariance_interval:
             self._propagate_covariance()
         if self.stats["imu"] % 1000 == 0:
-            mech.renormalize()
+            self.mech.renormalize()
         self._snapshot()
         if self.nhc is not None and self.t - self._nhc_t >= self.s.nhc.interval:
             self._nhc_t = self.t
             self._nhc_update()
 
+    def _mechanize(self, gyro, accel, dt):
+        self._f = self.mech.step(gyro, accel, dt)
+        self.omega_b = gyro - self.mech.gyro_bias
+
     def _propagate_covariance(self):
-        """P <- Φ P Φ^T + U Δt with Φ = I + F Δt (5-9-4, 5-6-2) over the accumulated interval."""
-        if self._cov_dt <= 0.0:
-            return
-        st = self.mech.state
-        rho, omega, a_c, c_bc = self._f
-        f = em.dynamics(self.s.error, st.v, a_c, rho, omega, em.body_to_c(c_bc), st.lat, st.h, st.alpha)
-        phi = np.eye(self.n_states)
-        phi[:em.N_STATES, :em.N_STATES] += f * self._cov_dt
-        if self.nhc is not None:            # crab: first-order Gauss-Markov, steady sigma from the roll
-            a = min(self._cov_dt / self.s.nhc.crab_tau, 1.0)
-            phi[CRAB, CRAB] = 1.0 - a
-            self.crab *= 1.0 - a
-        self.p = phi @ self.p @ phi.T
-        self.p[np.diag_indices_from(self.p)] += self.psd * self._cov_dt
-        if self.nhc is not None:
-            self.p[CRAB, CRAB] += 2.0 * a * self.s.nhc.crab_var(st.euler()[0])
-        if self._gap_var is not None:
-            self.p[np.diag_indices_from(self.p)] += self._gap_var
-            self._gap_var = None
-        self._cov_dt = 0.0
+        if self._cov_dt > 0.0:      # (+ the unknown motion of a bridged IMU gap)
+            self.p = self.propagate_covariance(self.p, self._cov_dt)
+            self.p[np.diag_indices_from(self.p)] += 0.0 if self._gap_var is None else self._gap_var
+            self._gap_var, self._cov_dt = None, 0.0
 
     def _snapshot(self):
         st = self.mech.state
@@ -279,23 +337,11 @@ class InsEkf:
                 self._update(g)
         self._pending = keep
 
-    def _gated(self, lin):
-        """True (and counted) if the innovation passes the chi-square gate."""
-        s = lin.h @ self.p @ lin.h.T + lin.r
-        nis = float(lin.z @ np.linalg.solve(s, lin.z))
-        if nis > self._gate(len(lin.z)):
-            self._reject(lin.name)
-            return False
-        n, total = self.stats["nis"].get(lin.name, (0, 0.0))
-        self.stats["nis"][lin.name] = (n + 1, total + nis)
-        self._stat("accepted", lin.name)
-        return True
-
     def _nhc_update(self):
         self._propagate_covariance()
         st = self.mech.state
         lin = self.nhc.linearize(st.c_b_cbar(), st.v, self.omega_b, self.crab, self.n_states)
-        if self._gated(lin):
+        if self.gated(lin):
             self._fuse([lin])
 
     def _update(self, g):
@@ -311,7 +357,7 @@ class InsEkf:
             self.p[em.H, em.H] += self._fix_var_h
         self._fix_var_h = var_h
         models = self.models if use_vel else self.models[:1]
-        accepted = [lin for lin in (m.linearize(snap, alpha, g, hv, self.n_states) for m in models) if self._gated(lin)]
+        accepted = [lin for lin in (m.linearize(snap, alpha, g, hv, self.n_states) for m in models) if self.gated(lin)]
         position = any(lin.name == self.models[0].name for lin in accepted)
         if position:
             self._first_reject_t = None
@@ -332,34 +378,21 @@ class InsEkf:
         self._fuse(accepted)
 
     def _fuse(self, accepted):
-        """Joseph-form update with the stacked accepted observations, fed back."""
+        """Update with the stacked accepted observations (kalman.update, Joseph form), fed back."""
         z = np.concatenate([m.z for m in accepted])
         h = np.vstack([m.h for m in accepted])
-        r = np.zeros((len(z), len(z)))
-        k0 = 0
-        for m in accepted:
-            r[k0:k0 + len(m.z), k0:k0 + len(m.z)] = m.r
-            k0 += len(m.z)
-        p = self.p
-        k = np.linalg.solve(h @ p @ h.T + r, h @ p).T
-        x = k @ z
-        ikh = np.eye(self.n_states) - k @ h
-        p = ikh @ p @ ikh.T + k @ r @ k.T                      # Joseph form
+        r = block_diag(*[m.r for m in accepted])
+        x, p = kalman.update(np.zeros(self.n_states), self.p, z, h @ self.p @ h.T + r, h, r)
         self._feedback(x, p)
 
     def _feedback(self, x, p):
         st = self.mech.state
         before = np.array([st.lat, st.lon, st.h, *st.v_ned()])
-        feedback.apply(self.mech, x)
-        if self.nhc is not None:
-            self.crab -= x[CRAB]
-        after = np.array([st.lat, st.lon, st.h, *st.v_ned()])
-        self._corr += after - before
-        j = feedback.azimuth_reset_jacobian(x[em.GAMMA], x[em.BETA], self.n_states)
-        p = j @ p @ j.T
+        p = self.feedback(x, p)
+        self._corr += np.array([st.lat, st.lon, st.h, *st.v_ned()]) - before
         if p[em.GAMMA, em.GAMMA] > 1.0:          # no worse than an unknown heading
             scale = 1.0 / math.sqrt(p[em.GAMMA, em.GAMMA])
             p[em.GAMMA, :] *= scale
             p[:, em.GAMMA] *= scale
-        p[em.BETA, em.BETA] = 0.5 * p[em.GAMMA, em.GAMMA] ** 2 + 1e-12
-        self.p = 0.5 * (p + p.T)
+            p[em.BETA, em.BETA] = 0.5 * p[em.GAMMA, em.GAMMA] ** 2 + 1e-12
+        self.p = p
