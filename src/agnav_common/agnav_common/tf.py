@@ -14,9 +14,9 @@ def make_transform(parent, child, stamp, xyz, quat):
     t.header.stamp = stamp
     t.header.frame_id = parent
     t.child_frame_id = child
-    t.transform.translation.x, t.transform.translation.y, t.transform.translation.z = (float(v) for v in xyz)
-    (t.transform.rotation.x, t.transform.rotation.y,
-     t.transform.rotation.z, t.transform.rotation.w) = (float(v) for v in quat)
+    tr, rot = t.transform.translation, t.transform.rotation
+    tr.x, tr.y, tr.z = map(float, xyz)
+    rot.x, rot.y, rot.z, rot.w = map(float, quat)
     return t
 
 

@@ -36,39 +36,40 @@ from agnav_fusion.front_end import Urgent
 from agnav_fusion.pipeline import NavigationPipeline
 
 
-def imu_message(s, frame_id, max_yaw_variance=None):
-    """sensor_msgs/Imu of a module state: orientation + covariance, bias-corrected rates, no acceleration."""
+def imu_message(s, frame_id, max_yaw_variance=None, stamp=None, quat=None):
+    """sensor_msgs/Imu of a module state: orientation + covariance, bias-corrected rates, no acceleration. stamp,
+    quat: the state's, when already computed."""
     msg = new_message(Imu)
-    msg.header.stamp = to_stamp(s.t)
+    msg.header.stamp = to_stamp(s.t) if stamp is None else stamp
     msg.header.frame_id = frame_id
     q = msg.orientation
-    q.x, q.y, q.z, q.w = quaternion_from_euler(*s.rpy)
+    q.x, q.y, q.z, q.w = quaternion_from_euler(*s.rpy) if quat is None else quat
     cov = s.pose_cov[3:, 3:].copy()
     if max_yaw_variance is not None:
         cov[2, 2] = min(cov[2, 2], max_yaw_variance)
     msg.orientation_covariance = cov.ravel()
     w = msg.angular_velocity
-    w.x, w.y, w.z = (float(v) for v in s.rates)
+    w.x, w.y, w.z = map(float, s.rates)
     msg.angular_velocity_covariance = s.twist_cov[3:, 3:].ravel()
     msg.linear_acceleration_covariance[0] = -1.0
     return msg
 
 
-def odometry_message(s, frames):
+def odometry_message(s, frames, stamp=None, quat=None):
     """nav_msgs/Odometry of a module state: pose in map, twist in base_link (side slip in linear.y), both with
-    covariance."""
+    covariance. stamp, quat: the state's, when already computed."""
     odom = new_message(Odometry)
-    odom.header.stamp = to_stamp(s.t)
+    odom.header.stamp = to_stamp(s.t) if stamp is None else stamp
     odom.header.frame_id = frames["map"]
     odom.child_frame_id = frames["base"]
     pose = odom.pose.pose
-    pose.position.x, pose.position.y, pose.position.z = (float(v) for v in s.position)
+    pose.position.x, pose.position.y, pose.position.z = map(float, s.position)
     q = pose.orientation
-    q.x, q.y, q.z, q.w = quaternion_from_euler(*s.rpy)
+    q.x, q.y, q.z, q.w = quaternion_from_euler(*s.rpy) if quat is None else quat
     odom.pose.covariance = s.pose_cov.ravel()
     tw = odom.twist.twist
     tw.linear.x, tw.linear.y, twist_cov = body_velocity(s)
-    tw.angular.x, tw.angular.y, tw.angular.z = (float(v) for v in s.rates)
+    tw.angular.x, tw.angular.y, tw.angular.z = map(float, s.rates)
     odom.twist.covariance = twist_cov.ravel()
     return odom
 
@@ -176,12 +177,12 @@ class NavSensorModuleNode(Node):
         return self.pipeline.ready(state)
 
     def publish(self, s):
-        odom = odometry_message(s, self.frames)
-        self.odom_pub.publish(odom)
-        self.imu_pub.publish(imu_message(s, self.frames["base"]))
+        stamp, quat = to_stamp(s.t), quaternion_from_euler(*s.rpy)   # shared by the outputs (read-only)
+        self.odom_pub.publish(odometry_message(s, self.frames, stamp, quat))
+        self.imu_pub.publish(imu_message(s, self.frames["base"], stamp=stamp, quat=quat))
         if self.publish_tf:  # REP-105: odom->base_link continuous, the fixes' corrections in map->odom
             xyz, quat, map_xyz, map_quat = self.odom_frame.update(s.t, s.position, s.rpy, s.speed, s.rates[2])
-            self.tf_out.send(pose_transforms(self.frames, odom.header.stamp, xyz, quat, (map_xyz, map_quat)))
+            self.tf_out.send(pose_transforms(self.frames, stamp, xyz, quat, (map_xyz, map_quat)))
 
     def check_inputs(self):
         """Rejections over the guard's recent window (IMU time) and IMU staleness (node time): the present."""
