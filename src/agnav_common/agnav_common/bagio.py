@@ -264,18 +264,24 @@ def write_message(writer, connection, t_ns, data):
     test/foundation/test_deterministic_replay.py)."""
     storage = writer.storage
     chunk, cid = storage.chunk, connection.id
-    storage.message_start_time = min(t_ns, storage.message_start_time)
-    storage.message_end_time = max(t_ns, storage.message_end_time)
+    if t_ns < storage.message_start_time:
+        storage.message_start_time = t_ns
+    if t_ns > storage.message_end_time:
+        storage.message_end_time = t_ns
     storage.channel_stats[cid] += 1
-    chunk.message_start_time = min(t_ns, chunk.message_start_time)
-    chunk.message_end_time = max(t_ns, chunk.message_end_time)
+    if t_ns < chunk.message_start_time:
+        chunk.message_start_time = t_ns
+    if t_ns > chunk.message_end_time:
+        chunk.message_end_time = t_ns
     bio = chunk.bio
     chunk.msgs[cid].append((t_ns, bio.tell()))
     bio.write(_MESSAGE.pack(0x05, 22 + len(data), cid, 0, t_ns, t_ns))
     bio.write(data)
     writer.counts[cid] += 1
-    writer.min_timestamp = min(t_ns, writer.min_timestamp)
-    writer.max_timestamp = max(t_ns, writer.max_timestamp)
+    if t_ns < writer.min_timestamp:
+        writer.min_timestamp = t_ns
+    if t_ns > writer.max_timestamp:
+        writer.max_timestamp = t_ns
     if bio.tell() > 2**20:
         storage.close_chunk()
 
