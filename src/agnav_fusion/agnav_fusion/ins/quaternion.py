@@ -15,7 +15,7 @@ def from_roll_pitch_yaw(roll, pitch, yaw=0.0):
 
 def to_dcm(q):
     """Body -> C-bar direction cosine matrix (5-3-5)."""
-    q0, q1, q2, q3 = q
+    q0, q1, q2, q3 = np.asarray(q, dtype=float).tolist()   # Python floats: cheaper scalar arithmetic than numpy's
     return np.array([
         [q0 * q0 + q1 * q1 - q2 * q2 - q3 * q3, 2 * (q1 * q2 - q0 * q3), 2 * (q1 * q3 + q0 * q2)],
         [2 * (q1 * q2 + q0 * q3), q0 * q0 - q1 * q1 + q2 * q2 - q3 * q3, 2 * (q2 * q3 - q0 * q1)],
@@ -46,13 +46,14 @@ def from_dcm(c):
 
 def rotate_increment(q, dtheta):
     """q <- q (x) [cos(|dθ|/2), sin(|dθ|/2) dθ/|dθ|]: exact form of (5-3-10), normalised."""
-    a = math.sqrt(dtheta[0] ** 2 + dtheta[1] ** 2 + dtheta[2] ** 2)
+    d0, d1, d2 = np.asarray(dtheta, dtype=float).tolist()
+    a = math.sqrt(d0 ** 2 + d1 ** 2 + d2 ** 2)
     if a < 1e-12:
-        r0, r1, r2, r3 = 1.0, 0.5 * dtheta[0], 0.5 * dtheta[1], 0.5 * dtheta[2]
+        r0, r1, r2, r3 = 1.0, 0.5 * d0, 0.5 * d1, 0.5 * d2
     else:
         s = math.sin(a / 2) / a
-        r0, r1, r2, r3 = math.cos(a / 2), s * dtheta[0], s * dtheta[1], s * dtheta[2]
-    q0, q1, q2, q3 = q
+        r0, r1, r2, r3 = math.cos(a / 2), s * d0, s * d1, s * d2
+    q0, q1, q2, q3 = np.asarray(q, dtype=float).tolist()
     out = np.array([q0 * r0 - q1 * r1 - q2 * r2 - q3 * r3,
                     q0 * r1 + q1 * r0 + q2 * r3 - q3 * r2,
                     q0 * r2 - q1 * r3 + q2 * r0 + q3 * r1,
