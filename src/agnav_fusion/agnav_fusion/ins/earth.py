@@ -30,7 +30,8 @@ def wander_radii(lat, h, alpha):
 def transport_rate(v, lat, h, alpha):
     """rho^C of the wander frame, rho_z = 0 (5-3-16..18)."""
     irx, iry, itau = wander_radii(lat, h, alpha)
-    return np.array([-v[1] * iry + v[0] * itau, v[0] * irx - v[1] * itau, 0.0])
+    v0, v1 = float(v[0]), float(v[1])
+    return np.array([-v1 * iry + v0 * itau, v0 * irx - v1 * itau, 0.0])
 
 
 def earth_rate_c(lat, alpha):
