@@ -114,3 +114,20 @@ def test_unflagged_slips_found_by_doppler_phase(nav):
         truth |= {(e.t, s) for s in e.slipped}
         found |= {(e.t, s) for s in doppler_phase_slips(prev.rover, e.rover)}
     assert len(truth) >= 5 and truth == found
+
+
+def test_switching_every_transition_without_a_jump(nav):
+    from agnav_sim_eval.sim.gnss_raw_sim_switch import SWITCH_WINDOWS as W, run_switching
+    from agnav_sim_eval.sim.run import simulate
+    res = run_switching(simulate("mems_field", seed=1), nav)
+    seen = [(tr["from"], tr["to"]) for tr in res.transitions]
+    assert seen == [("loose", "tight"), ("tight", "ins_only"), ("ins_only", "tight"), ("tight", "loose")]
+    assert all(tr["jump_sigma"] < 3.0 for tr in res.transitions)
+    mode = np.array(res.mode)
+    for name, want in (("three_sat", "tight"), ("outage", "ins_only"), ("refloat", "tight")):
+        sel = (res.t >= W[name][0]) & (res.t < W[name][1])
+        assert np.all(mode[sel] == want), name
+    assert np.all(mode[res.t >= W["refloat"][1] + 1.0] == "loose")
+    horiz = np.linalg.norm(res.err[:, :2], axis=1)
+    assert horiz[(res.t >= W["three_sat"][0]) & (res.t < W["three_sat"][1])].max() < 0.10
+    assert res.refix_time_s < 10.0 and horiz[res.t >= W["outage"][1] + res.refix_time_s].max() < 0.05

@@ -93,6 +93,21 @@ def antenna_state(mech, lever_frd, omega_b):
             r @ (st.v_ned() + c @ cross(omega_b, lever_frd)))
 
 
+def antenna_jacobians(mech, lever_frd, omega_b, n):
+    """(J_pos, J_vel) 3 x n: ECEF position / velocity error of the point at `lever_frd` per INS error state,
+    through feedback.apply on a copy (a correction by ε·e_i moves the antenna by −J ε e_i)."""
+    p0, v0 = antenna_state(mech, lever_frd, omega_b)
+    jp, jv = np.zeros((3, n)), np.zeros((3, n))
+    for i in sorted(set(POS_COLS) | set(VEL_COLS)):
+        m = copy.deepcopy(mech)
+        x = np.zeros(em.N_STATES)
+        x[i] = STEP[i]
+        feedback.apply(m, x)
+        p1, v1 = antenna_state(m, lever_frd, omega_b)
+        jp[:, i], jv[:, i] = (p0 - p1) / STEP[i], (v0 - v1) / STEP[i]
+    return jp, jv
+
+
 def doppler_phase_slips(prev, rover, threshold=0.6):
     """Satellites of ObsEpoch `rover` whose phase change since `prev` disagrees with the mean Doppler over the
     interval by more than `threshold` cycles (receiver clock drift is in both and cancels)."""
@@ -143,6 +158,7 @@ class TightFilter:
 
     def export_state(self):
         """Hand-back (tight → loose, InsEkf.adopt): the INS part of the state and its covariance."""
+        self._propagate()
         out = self.ins.export_state()
         out["p"] = self.p[:N_CORE - 1, :N_CORE - 1].copy()
         return out
@@ -193,17 +209,8 @@ class TightFilter:
         return antenna_state(self.mech, self.lever, self.ins.omega_b)
 
     def jacobians(self):
-        """(J_pos, J_vel) 3 x n: antenna ECEF position / velocity error per state (through feedback.apply)."""
-        p0, v0 = self.antenna()
-        jp, jv = np.zeros((3, self.n)), np.zeros((3, self.n))
-        for i in sorted(set(POS_COLS) | set(VEL_COLS)):
-            m = copy.deepcopy(self.mech)
-            x = np.zeros(em.N_STATES)
-            x[i] = STEP[i]
-            feedback.apply(m, x)
-            p1, v1 = antenna_state(m, self.lever, self.ins.omega_b)
-            jp[:, i], jv[:, i] = (p0 - p1) / STEP[i], (v0 - v1) / STEP[i]
-        return jp, jv
+        """(J_pos, J_vel) 3 x n: antenna ECEF position / velocity error per state (antenna_jacobians)."""
+        return antenna_jacobians(self.mech, self.lever, self.ins.omega_b, self.n)
 
     # ------------------------------------------------------------------ GNSS
     def _doppler_slips(self, rover):

@@ -59,7 +59,7 @@ class InsEkf:
         self._pending = []
         self._gates = {}
         self._corr = np.zeros(6)          # accumulated corrections (lat, lon, h, v_ned)
-        self._fix_drift_cov = np.zeros((3, 3))  # slowly drifting part of the latest fused fix's covariance (ENU)
+        self.fix_drift_cov = np.zeros((3, 3))  # slowly drifting part of the latest fused fix's covariance (ENU)
         self._last_gnss_t = None
         self._fix_var_h = 0.0             # horizontal variance per axis of the previous fix [m^2]
         self._last_accept_t = None
@@ -119,7 +119,7 @@ class InsEkf:
             gap_psd = np.zeros(self.n_states)
             gap_psd[list(em.V3)] = self.s.gap_accel_sigma ** 2 * self.last_gap
             gap_psd[[em.TX, em.TY, em.GAMMA]] = self.s.gap_rate_sigma ** 2 * self.last_gap
-        g0, a0 = self._last_imu
+        g0, a0 = self._last_imu or (gyro, accel)    # (none yet after adopt)
         for k in range(1, n + 1):
             w = k / n
             self.t = t if k == n else t0 + w * dt
@@ -164,7 +164,7 @@ class InsEkf:
         pos = np.zeros((3, 3))
         pos[:2, :2] = a @ self.p[:2, :2] @ a.T
         pos[2, 2] = self.p[em.H, em.H]
-        pos += self._fix_drift_cov
+        pos += self.fix_drift_cov
         m = ENU_TO_NED.T @ ned_to_c(alpha).T       # C -> ENU
         tx, ty, c = self.p[em.TX, em.TX], self.p[em.TY, em.TY], self.p[em.TX, em.TY]
         tilt = 0.5 * (tx + ty) + math.hypot(0.5 * (tx - ty), c)   # largest: roll and pitch are rotated C-axis tilts
@@ -237,7 +237,9 @@ class InsEkf:
         return True
 
     def export_state(self):
-        """Hand-over (SPEC §7.9): copies of the mechanization, error covariance (n_states), crab, time and rate."""
+        """Hand-over (SPEC §7.9): copies of the mechanization, error covariance (n_states, propagated to t), crab,
+        time and rate."""
+        self._propagate_covariance()
         return {"mech": copy.deepcopy(self.mech), "p": self.p.copy(), "crab": self.crab, "t": self.t,
                 "omega_b": self.omega_b.copy()}
 
@@ -374,7 +376,7 @@ class InsEkf:
             return
         self._last_accept_t = self.t
         if position:
-            self._fix_drift_cov = self.s.gnss_correlated_fraction * np.asarray(g.pos_cov_enu, dtype=float)
+            self.fix_drift_cov = self.s.gnss_correlated_fraction * np.asarray(g.pos_cov_enu, dtype=float)
         self._fuse(accepted)
 
     def _fuse(self, accepted):

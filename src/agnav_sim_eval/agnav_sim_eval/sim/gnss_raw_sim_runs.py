@@ -83,6 +83,12 @@ def float_fixes(raw, nav, start, window):
     return out
 
 
+def coupled_settings(run, mounts):
+    """InsEkfSettings of the simulated runs (mounts of sim_streams; initial heading from the truth's start)."""
+    return InsEkfSettings(lever_gnss_frd=tuple(mounts.lever_gnss_frd), lever_base_frd=tuple(-mounts.lever_imu_frd),
+                          initial_heading=wrap_angle(math.pi / 2 - run.truth.yaw[0] + math.pi))
+
+
 def run_coupled(run, nav, kind="three_sat", window=(120.0, 180.0), handover=60.0, seed=0, streams=None):
     """CoupledRun of a SimRun (mems_field-style) with the sky of `kind` (see module docstring)."""
     from agnav_sim_eval.bench.ins import sim_streams
@@ -92,9 +98,7 @@ def run_coupled(run, nav, kind="three_sat", window=(120.0, 180.0), handover=60.0
     fixes = [g for g in gnss if not blocked[0] <= g[1].t < blocked[1]]
     if kind == "float":
         fixes = sorted(fixes + float_fixes(raw, nav, window[0], window), key=lambda g: g[0])
-    s = InsEkfSettings(lever_gnss_frd=tuple(mounts.lever_gnss_frd), lever_base_frd=tuple(-mounts.lever_imu_frd),
-                       initial_heading=wrap_angle(math.pi / 2 - run.truth.yaw[0] + math.pi))
-    ekf, tight = InsEkf(s), None
+    ekf, tight = InsEkf(coupled_settings(run, mounts)), None
     epochs = {round(e.t * 100): e for e in raw.epochs}
     rows, gi, spent = [], 0, 0.0
     for i, t in enumerate(run.imu.t):

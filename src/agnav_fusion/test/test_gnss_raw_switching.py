@@ -1,0 +1,50 @@
+"""Mode switching (gnss_raw.switching): Table 5-8-1 and the hand-over of the INS state between the loosely and the
+tightly coupled filter (InsEkf.export_state / adopt)."""
+import numpy as np
+
+from agnav_fusion.gnss_raw.observations import ObsEpoch
+from agnav_fusion.gnss_raw.switching import INS_ONLY, LOOSE, TIGHT, select_mode
+from agnav_fusion.gnss_raw.tight import TightFilter, antenna_state
+from agnav_fusion.ins import InsEkf, InsEkfSettings, InsState, Mechanization
+
+
+def epoch(sats, code=20e6):
+    n = len(sats)
+    full = np.full((n, 2), code)
+    return ObsEpoch(2320, 0.0, list(sats), full, full, full, full, np.zeros((n, 2), bool), np.full((n, 2), 0.19))
+
+
+def test_table_5_8_1():
+    base = epoch(["G01", "G02", "G03", "E01", "E02"])
+    assert select_mode(True, None, None) == LOOSE                          # RTK fixed wins
+    assert select_mode(False, epoch(["G01", "G03"]), base) == TIGHT        # 2 common satellites: one DD
+    assert select_mode(False, epoch(["G01", "E01"]), base) == INS_ONLY     # 2 common, no DD (two systems)
+    assert select_mode(False, epoch(["G01", "G09"]), base) == INS_ONLY     # G09 not at the base
+    assert select_mode(False, epoch(["G01", "G02"], np.nan), base) == INS_ONLY   # no code
+    assert select_mode(False, epoch([]), base) == INS_ONLY
+    assert select_mode(False, epoch(["G01", "G02"]), None) == INS_ONLY    # no base link
+
+
+def aligned_ekf():
+    ekf = InsEkf(InsEkfSettings(lever_gnss_frd=(0.3, 0.0, -2.0)))
+    ekf.adopt(Mechanization(InsState.from_geodetic(0.63, 2.44, 50.0, 0.0, 0.0, 0.5, (2.0, 0.0, 0.0))),
+              np.diag(np.linspace(1e-6, 1e-4, 16)), t=0.0)
+    return ekf
+
+
+def test_hand_over_keeps_state_and_covariance():
+    ekf = aligned_ekf()
+    assert ekf.p.shape == (17, 17) and ekf.p[16, 16] > 0          # crab added with its steady variance
+    for k in range(1, 51):
+        ekf.add_imu(k * 0.01, np.zeros(3), np.array([0.0, 0.0, -9.8]))
+    before = antenna_state(ekf.mech, ekf.s.lever_gnss_frd, ekf.omega_b)
+    tight = TightFilter.from_ins(ekf, np.zeros(3))
+    assert np.array_equal(tight.p[:17, :17], ekf.p) and tight.mech is not ekf.mech
+    assert np.allclose(tight.antenna()[0], before[0], atol=0) and np.allclose(tight.antenna()[1], before[1], atol=0)
+    for k in range(51, 101):
+        tight.add_imu(k * 0.01, np.zeros(3), np.array([0.0, 0.0, -9.8]))
+    tight.p[17:, :] = tight.p[:, 17:] = 0.0          # drift/ambiguity rows are dropped on the way back
+    state = tight.export_state()
+    ekf.adopt(**state)
+    assert ekf.t == tight.t and np.array_equal(ekf.p, tight.p[:17, :17]) and ekf.crab == tight.ins.crab
+    assert np.allclose(antenna_state(ekf.mech, ekf.s.lever_gnss_frd, ekf.omega_b)[0], tight.antenna()[0], atol=0)
