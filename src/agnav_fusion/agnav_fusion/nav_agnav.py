@@ -34,6 +34,7 @@ class AgnavEstimator:
         self.chord = HeadingChord(s.chord_max_turn, s.heading_init_distance, s.heading_valid_sigma)
         self.still = False         # the latest fix says the vehicle stands still
         self.fix_speed = None      # (epoch, EKF speed after the fix): the fixes' own acceleration
+        self.last_fix_t = math.inf  # epoch of the latest fix, accepted or not
         self.fix_accel = 0.0       # m/s^2, speed change between fixes: compensates the inclinometer in accelerometer
         #                            mode (the accelerometer's own along-track reading holds the pitch: circular)
 
@@ -126,7 +127,10 @@ class AgnavEstimator:
         still_below = max(s.stationary_speed, 2.0 * s.velocity_sigma) if doppler else s.stationary_speed
         creeping = doppler or self.ekf.x is None or abs(self.ekf.x[IV]) < still_below
         was_still, self.still = self.still, speed is not None and speed < still_below and creeping
-        return self._fuse_fix(k, t, xy, R, v_ref, vel_var, speed, was_still and not self.still, doppler, differenced)
+        accepted = self._fuse_fix(k, t, xy, R, v_ref, vel_var, speed, was_still and not self.still, doppler,
+                                  differenced)
+        self.last_fix_t = t
+        return accepted
 
     def _fuse_fix(self, k, t, xy, R, v_ref, vel_var, speed, started, doppler, differenced):
         s, hist, ekf = self.m.settings, self.m.history, self.ekf
@@ -148,6 +152,8 @@ class AgnavEstimator:
         else:
             jac = offset_heading_jacobian(self.m.lever, snap.heading, snap.pitch, snap.roll)
             y, S, d2, H = ekf.position_innovation(xy, R, jac)
+            if d2 > s.gate_chi2 and ekf.absorb_along_track(y, S, R, t - self.last_fix_t, s.max_accel):
+                y, S, d2, H = ekf.position_innovation(xy, R, jac)  # the speed model fell behind a braking or start
             verdict = self.m.gate(t, d2)
             if verdict is False and not doppler:  # a refused fix's own difference velocity is no better
                 ekf.x, ekf.P = hist[-1].nav[0].copy(), hist[-1].nav[1].copy()

@@ -188,6 +188,22 @@ class NavEKF:
         y, S, d2 = kalman.innovation(self.x, self.P, np.asarray(xy, dtype=float), H, R, h=h)
         return y, S, d2, H
 
+    def absorb_along_track(self, y, S, R, dt, max_accel):
+        """A fix missed along the track by m = y . u (beyond 3 sigma of its own noise R): taken as an acceleration
+        the speed model did not foresee, held over the dt since the last fix (braking, starting) when at most
+        max_accel explains it; the variance it lacked (m^2 - u S u) enters the position along the course and the
+        speed, correlated. -> True when absorbed."""
+        c = self.course()
+        u = np.array([math.sin(c), math.cos(c)])
+        miss = float(np.asarray(y) @ u)
+        lacking = miss * miss - float(u @ S @ u)
+        if dt <= 0 or abs(miss) > 0.5 * max_accel * dt * dt or miss * miss <= 9.0 * float(u @ R @ u) or lacking <= 0:
+            return False
+        J = np.zeros(N)
+        J[IX:IPHI], J[IV] = 0.5 * dt * dt * u, dt
+        self.P += np.outer(J, J) * lacking / (0.25 * dt ** 4)
+        return True
+
     def zero_rate_innovation(self, rate, var):
         """(y, S, H, R) of a standstill: the clockwise gyro rate reads the bias b, with variance var (rad/s)^2."""
         H = np.zeros((1, N))

@@ -21,6 +21,7 @@ from agnav_fusion.nav_thesis import ThesisEstimator
 
 ESTIMATORS = {"agnav": AgnavEstimator, "thesis": ThesisEstimator}
 DIAG6 = np.diag_indices(6)
+DIFFERENCE_S = 12.0  # s of fixes a front end's fix-difference velocity may span (pipeline: 10 s)
 
 
 class NavSensorModule:
@@ -51,7 +52,7 @@ class NavSensorModule:
         self._last_accepted_t = -math.inf
         self._rejected_since = None  # epoch of the first of the fixes the gate refuses in a row
         self.last_fix = None         # latest accepted corrected fix (t, xyz, cov)
-        self._antenna_fixes = deque(maxlen=12)  # (t, antenna ENU) received: tells fix-differenced velocities
+        self._antenna_fixes = deque()  # (t, antenna ENU) of the last DIFFERENCE_S: tells fix-differenced velocities
         self._state = None
 
     def set_mounts(self, lever_flu, incl_lever_flu=None):
@@ -88,6 +89,8 @@ class NavSensorModule:
         antenna_enu = np.asarray(antenna_enu, float)
         differenced = vel_enu is not None and self._differenced(t, antenna_enu, np.asarray(vel_enu, float))
         self._antenna_fixes.append((t, antenna_enu))
+        while self._antenna_fixes[0][0] < t - DIFFERENCE_S:
+            self._antenna_fixes.popleft()
         if vel_enu is not None:
             vel_var = self.guard.velocity_variance(vel_var, self.settings.velocity_sigma ** 2)
             if vel_var is None or not self.guard.accept("vel", t, vel_enu):
@@ -100,8 +103,12 @@ class NavSensorModule:
     def _differenced(self, t, antenna, vel):
         """True when vel is the difference of this fix and an earlier one over their time (no /gnss/vel: the
         front end's fix-difference velocity), not a receiver (Doppler) velocity."""
-        return any(t > t0 and np.allclose((antenna - p0) / (t - t0), vel, rtol=1e-9, atol=1e-9)
-                   for t0, p0 in self._antenna_fixes)
+        if not self._antenna_fixes:
+            return False
+        t0, p0 = (np.array(v) for v in zip(*self._antenna_fixes))
+        dt = (t - t0)[:, None]
+        diff = np.divide(antenna - p0, dt, out=np.full(p0.shape, np.inf), where=dt > 0)
+        return bool(np.any(np.all(np.abs(diff - vel) <= 1e-9 + 1e-9 * np.abs(vel), axis=1)))
 
     def wheel_speed(self, t, speed, var=None):
         """Forward ground speed (m/s, negative reversing) of base_link from wheel odometry or a radar, with its
