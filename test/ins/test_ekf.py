@@ -4,7 +4,7 @@ import math
 import numpy as np
 import pytest
 
-from agnav_fusion.ins import synthetic as sy
+from agnav_sim_eval.sim import ins_synthetic as sy
 from agnav_fusion.ins.ekf import ALIGNED, InsEkf, InsEkfSettings
 
 LEVER = (-1.0, 0.0, -2.0)      # IMU -> antenna, FRD [m]

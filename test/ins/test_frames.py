@@ -5,7 +5,7 @@ import numpy as np
 
 from agnav_common.frames import rotation_matrix
 from agnav_common.geodesy import LocalTangentPlane
-from agnav_fusion.ins import synthetic as sy
+from agnav_sim_eval.sim import ins_synthetic as sy
 from agnav_fusion.ins.ekf import NavSolution
 from agnav_fusion.ins.frames import Mounts, base_link_state
 

@@ -3,7 +3,8 @@ import math
 
 import numpy as np
 
-from agnav_fusion.ins import earth, synthetic as sy
+from agnav_fusion.ins import earth
+from agnav_sim_eval.sim import ins_synthetic as sy
 from agnav_fusion.ins.mechanization import InsState, Mechanization, c_e_c, roll_pitch_from_accel
 
 

@@ -7,7 +7,8 @@ import math
 import numpy as np
 import pytest
 
-from agnav_fusion.ins import feedback, synthetic as sy
+from agnav_fusion.ins import feedback
+from agnav_sim_eval.sim import ins_synthetic as sy
 from agnav_fusion.ins import error_model as em
 from agnav_fusion.ins.constraints import CRAB, NhcSettings, NonHolonomic
 from agnav_fusion.ins.ekf import InsEkf, InsEkfSettings
@@ -131,7 +132,7 @@ def test_realigns_after_fixes_stay_rejected():
 @pytest.mark.parametrize("heading", [0.3, -2.5])
 def test_heading_from_course_removes_the_antenna_sway(heading):
     from agnav_fusion.ins.lever_arm import heading_from_course
-    from agnav_fusion.ins.synthetic import dcm_from_euler
+    from agnav_sim_eval.sim.ins_synthetic import dcm_from_euler
     roll, pitch, lever = 0.06, -0.04, np.array([-0.3, 0.25, -2.9])       # base_link -> antenna, FRD
     omega = np.array([0.25, -0.1, 0.05])                                  # rough-road sway
     c = dcm_from_euler(roll, pitch, heading)

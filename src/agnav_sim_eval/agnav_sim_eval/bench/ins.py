@@ -11,7 +11,7 @@ order through `InsEkf` (heading guess off by 180°, treated as unknown) and thro
 the INS heading has aligned and the module's heading_valid flag is set; alignment = seconds after the vehicle
 starts moving until |heading error| stays < 1°; drift = growth of the horizontal error over a 10 s / 30 s GNSS
 outage starting at 120 s; cost = µs of filter time per IMU sample.
-`--synthetic` adds the ROS-free synthetic runs (`agnav_fusion.ins.synthetic`: 240 s of 40 m passes at 2 m/s,
+`--synthetic` adds the ROS-free synthetic runs (`agnav_sim_eval.sim.ins_synthetic`: 240 s of 40 m passes at 2 m/s,
 `MemsGrade`: gyro 0.01 °/s/√Hz, 0.1 °/s turn-on bias, 10 °/h instability; accel 150 µg/√Hz, 10 mg turn-on bias,
 0.1 mg instability; 0.2 % scale; 100 Hz; antenna 2.2 m from the IMU; outages at 150 s) with NEES-style NIS.
 """
@@ -25,7 +25,7 @@ import numpy as np
 
 from agnav_common.frames import rotation_matrix, wrap_angle
 from agnav_common.geodesy import LocalTangentPlane
-from agnav_fusion.ins import synthetic as sy
+from agnav_sim_eval.sim import ins_synthetic as sy
 from agnav_fusion.ins.ekf import InsEkf, InsEkfSettings
 from agnav_fusion.ins.frames import Mounts, base_link_state
 from agnav_fusion.ins.measurements import GnssSample

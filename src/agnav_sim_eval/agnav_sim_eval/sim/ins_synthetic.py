@@ -10,9 +10,8 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-
-from . import earth
-from .measurements import ENU_TO_NED, GnssSample
+from agnav_fusion.ins import earth
+from agnav_fusion.ins.measurements import ENU_TO_NED, GnssSample
 
 
 @dataclass
