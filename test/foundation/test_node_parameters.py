@@ -28,7 +28,22 @@ def test_generated_params_files_are_up_to_date():
     assert proc.returncode == 0, proc.stdout
     assert {path.name for path, (node, _) in gen_params.NODES.items() if node in NODES} == {
         "steering_node.yaml", "heading_node.yaml", "gnss_correction_node.yaml", "attitude_node.yaml",
-        "adc_sensor.yaml", "nmea_gnss.yaml", "ubx_gnss.yaml"}
+        "adc_sensor.yaml", "nmea_gnss.yaml", "ubx_gnss.yaml", "bag_player.yaml", "bag_recorder.yaml",
+        "tractor_sim.yaml"}
+
+
+def _required(node_name, tmp_path):
+    """{name: value} a node needs beyond its file's defaults: a bag to play (a second message 100 s after the first
+    keeps the player running), a folder to record to."""
+    if node_name == "bag_player":
+        from std_msgs.msg import String
+
+        from test.foundation.bagmaker import write_bag
+        t0 = 1_700_000_000_000_000_000
+        bag = write_bag(tmp_path / "in", [("/param_test", "std_msgs/msg/String", t0 + k * 100_000_000_000,
+                                           String(data=str(k))) for k in range(2)])
+        return {"bag": str(bag)}
+    return {"output": str(tmp_path / "rec")} if node_name == "bag_recorder" else {}
 
 
 def _python(value):
@@ -50,11 +65,13 @@ def test_params_file_round_trips_and_every_parameter_is_described(ros, node_name
     docs = {name: doc for name, _, doc in importlib.import_module(module).parameter_entries()}
     assert set(docs) == set(values)
     args = ["--ros-args", "--params-file", str(path)]
-    device = None
+    device, given = None, _required(node_name, tmp_path)
     if node_name in DRIVERS:  # a real port to open: a pty standing in for the USB device
         device = PtyDevice(str(tmp_path / "ttyUSB0"))
-        args += ["-p", f"port:={device.path}"]
-        values["port"] = device.path
+        given["port"] = device.path
+    for name, value in given.items():
+        args += ["-p", f"{name}:={value}"]
+    values.update(given)
     code = f"import sys; from {module} import main; sys.exit(main())"
     proc = subprocess.Popen([sys.executable, "-c", code, *args], stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
                             text=True, env=dict(os.environ, ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST"))
@@ -102,7 +119,11 @@ def test_params_file_round_trips_and_every_parameter_is_described(ros, node_name
     ("agnav_fusion.heading_node", "HeadingNode", "vwa.window", -1.0),
     ("agnav_fusion.gnss_correction_node", "GnssCorrectionNode", "max_attitude_age", -0.5),
     ("agnav_drivers.nmea_gnss_node", "NmeaGnssNode", "stamp_source", "gps"),
-    ("agnav_drivers.adc_sensor_node", "AdcSensorNode", "frame_mode", "hex")])
+    ("agnav_drivers.adc_sensor_node", "AdcSensorNode", "frame_mode", "hex"),
+    ("agnav_drivers.bag_player_node", "BagPlayerNode", "window", -1),
+    ("agnav_drivers.bag_recorder_node", "BagRecorderNode", "flush_period", 0.01),
+    ("agnav_sim_eval.sim_node", "TractorSimNode", "scenario", "bogus"),
+    ("agnav_sim_eval.sim_node", "TractorSimNode", "real_time_factor", -1.0)])
 def test_bad_values_are_refused_at_start(ros, module, cls, name, value):
     import importlib
 

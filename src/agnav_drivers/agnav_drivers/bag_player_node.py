@@ -14,6 +14,7 @@ Publishes /clock from the bag timeline (a recorded /clock is not replayed) and /
 import itertools
 import sys
 import time
+from dataclasses import dataclass, field
 
 from rclpy._rclpy_pybind11 import RCLError
 from rclpy.node import Node
@@ -23,6 +24,7 @@ from tqdm import tqdm
 
 from agnav_common.diagnostics import OK, WARN, Diagnostics
 from agnav_common.node_main import main_for
+from agnav_common.parameters import declare, leaves
 from agnav_common.qos import LATCHED_QOS, SENSOR_QOS
 from agnav_drivers.bag_source import BagSource
 from agnav_drivers.ros_types import message_class
@@ -33,24 +35,42 @@ LATCHED_TOPICS = ("/tf_static", "/map_datum")
 REPLAY_QOS = QoSProfile(history=HistoryPolicy.KEEP_ALL, reliability=ReliabilityPolicy.RELIABLE)
 
 
+@dataclass
+class BagPlayerSettings:
+    bag: str = ""                # rosbag2 folder, .mcap, .db3 or ROS 1 .bag to replay (required)
+    rate: float = 1.0            # bag time per wall time; 0 = as fast as the graph consumes (flow control)
+    topics: list = field(default_factory=lambda: [""])   # bag topics replayed; [""] = every topic
+    remap: list = field(default_factory=lambda: [""])    # "bag_topic:=graph_topic" entries; [""] = none
+    exclude: list = field(default_factory=lambda: [""])  # bag topics not replayed; [""] = none
+    start_offset: float = 0.0    # s of the bag skipped at its start
+    loop: bool = False           # restart at the end of the bag instead of finishing
+    clock: bool = True           # publish /clock from the bag timeline
+    progress: bool = False       # tqdm progress bar on stderr when it is a terminal
+    window: int = 20             # messages published ahead of what the probes have received (rate 0)
+    start_delay: float = 1.0     # s before the first message (subscribers in other processes discover us)
+    min_subscribers: int = 0     # subscribers every topic waits for before the start (at most 10 s); rate 0 adds
+    # this node's probe
+    cache_dir: str = ""          # folder of ROS 1 bags converted to rosbag2; "" = the system temp folder
+    external_drive: bool = False  # no timer, no flow control: the owner calls play() (deterministic replay)
+
+
+def parameter_entries():
+    """[(name, default, description)] of every parameter (tools/gen_params.py writes the params file from it)."""
+    return leaves(BagPlayerSettings())
+
+
 class BagPlayerNode(Node):
     def __init__(self, **kwargs):
         super().__init__("bag_player", **kwargs)
         self.source, self._bar = None, None  # destroy_node works on a node whose construction failed
-        p = {name: self.declare_parameter(name, default).value for name, default in (
-            ("bag", ""), ("rate", 1.0), ("topics", [""]), ("remap", [""]), ("start_offset", 0.0),
-            ("loop", False), ("clock", True), ("progress", False), ("window", 20), ("start_delay", 1.0),
-            ("min_subscribers", 0), ("cache_dir", ""), ("exclude", [""]), ("external_drive", False))}
-        if not p["bag"]:
+        p = declare(self, BagPlayerSettings())
+        if not p.bag:
             raise ValueError("parameter 'bag' (path of a rosbag2 folder, .mcap, .db3 or ROS 1 .bag) is required")
-        self.rate = float(p["rate"])
-        self.external = bool(p["external_drive"])
-        self.window = int(p["window"])
-        self.loop = bool(p["loop"])
-        self.progress = bool(p["progress"])
-        remap = dict(r.split(":=", 1) for r in p["remap"] if r)
-        self.source = BagSource(p["bag"], topics=[t for t in p["topics"] if t] or None,
-                                start_offset=p["start_offset"], cache_dir=p["cache_dir"] or None)
+        self.rate, self.external, self.window = p.rate, p.external_drive, p.window
+        self.loop, self.progress = p.loop, p.progress
+        remap = dict(r.split(":=", 1) for r in p.remap if r)
+        self.source = BagSource(p.bag, topics=[t for t in p.topics if t] or None,
+                                start_offset=p.start_offset, cache_dir=p.cache_dir or None)
         self.publishers_ = {}
         self.skipped = {}
         self.withheld = []  # latched bag topics the graph publishes itself
@@ -58,7 +78,7 @@ class BagPlayerNode(Node):
         self.published = 0
         self.received = 0
         self.retries = 0
-        exclude = {t for t in p["exclude"] if t}
+        exclude = {t for t in p.exclude if t}
         for topic, msgtype in self.source.topics.items():
             if topic == "/clock" or topic in exclude:
                 continue
@@ -73,7 +93,7 @@ class BagPlayerNode(Node):
             self.publishers_[topic] = self.create_publisher(cls, out, qos)
             if self.rate == 0.0 and not self.external:  # probes: count what the graph has received
                 self.create_subscription(cls, out, self._on_probe, SENSOR_QOS, raw=True)
-        self.clock_pub = self.create_publisher(Clock, "/clock", 10) if p["clock"] else None
+        self.clock_pub = self.create_publisher(Clock, "/clock", 10) if p.clock else None
         self.finished = False
         self._iter = None
         self._start_wall = None
@@ -83,8 +103,8 @@ class BagPlayerNode(Node):
         self._last_progress = 0.0
         # Start once every topic has min_subscribers matched (probe and recorder count) and start_delay
         # has passed, so that subscribers in other processes have discovered us; give up waiting after 10 s.
-        self.min_subscribers = int(p["min_subscribers"]) + (1 if self.rate == 0.0 else 0)
-        self._ready_at = time.monotonic() + float(p["start_delay"])
+        self.min_subscribers = p.min_subscribers + (1 if self.rate == 0.0 else 0)
+        self._ready_at = time.monotonic() + p.start_delay
         self.diagnostics = Diagnostics(self, "bag_player")
         self.diagnostics.add("replay", self._diagnose)
         if not self.external:

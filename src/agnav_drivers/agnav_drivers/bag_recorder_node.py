@@ -8,9 +8,9 @@ killed without closing (SIGKILL, power loss) leaves a folder that `agnav recover
 On an installed agnav_common.local_bus the graph queries see the bus, and new topics are subscribed at once.
 """
 import time
+from dataclasses import dataclass, field
 from pathlib import Path
 
-from rcl_interfaces.msg import FloatingPointRange, ParameterDescriptor
 from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
@@ -20,25 +20,36 @@ from agnav_common import local_bus
 from agnav_common.bagio import close_recording, flush_recording, typestore, write_message
 from agnav_common.diagnostics import OK, Diagnostics
 from agnav_common.node_main import main_for
+from agnav_common.parameters import bounded, declare, leaves
 from agnav_common.qos import bag_profiles
 from agnav_drivers.ros_types import message_class
 
 ALWAYS_EXCLUDED = ("/rosout", "/parameter_events")
 
 
+@dataclass
+class BagRecorderSettings:
+    output: str = ""  # rosbag2 folder to create (required)
+    topics: list = field(default_factory=lambda: [""])   # topics recorded; [""] = every topic of the graph
+    exclude: list = field(default_factory=lambda: [""])  # topics not recorded (besides /rosout, /parameter_events)
+    flush_period: float = field(default=1.0, metadata=bounded(0.05, 60.0))  # s of wall time between writes to disk
+
+
+def parameter_entries():
+    """[(name, default, description)] of every parameter (tools/gen_params.py writes the params file from it)."""
+    return leaves(BagRecorderSettings())
+
+
 class BagRecorderNode(Node):
     def __init__(self, **kwargs):
         super().__init__("bag_recorder", **kwargs)
-        out = self.declare_parameter("output", "").value
-        if not out:
+        p = declare(self, BagRecorderSettings())
+        if not p.output:
             raise ValueError("parameter 'output' (rosbag2 folder to create) is required")
-        self.topics = [t for t in self.declare_parameter("topics", [""]).value if t]
-        self.exclude = set(self.declare_parameter("exclude", [""]).value) | set(ALWAYS_EXCLUDED)
-        flush_period = self.declare_parameter("flush_period", 1.0, ParameterDescriptor(
-            description="s of wall time between writes to disk", floating_point_range=[
-                FloatingPointRange(from_value=0.05, to_value=60.0)])).value
+        self.topics = [t for t in p.topics if t]
+        self.exclude = set(p.exclude) | set(ALWAYS_EXCLUDED)
         self.store = typestore()
-        self.writer = Writer(Path(out), version=9, storage_plugin=StoragePlugin.MCAP)
+        self.writer = Writer(Path(p.output), version=9, storage_plugin=StoragePlugin.MCAP)
         self.writer.open()
         self.connections = {}
         self.counts = {}
@@ -51,7 +62,7 @@ class BagRecorderNode(Node):
         local_bus.on_new_topic(self._discover)  # in-process bus: subscribe before the first message, not 0.2 s later
         steady = Clock(clock_type=ClockType.STEADY_TIME)  # wall time: not stalled by a paused /clock
         self.create_timer(0.2, self._discover, clock=steady)
-        self.create_timer(flush_period, self.flush, clock=steady)
+        self.create_timer(p.flush_period, self.flush, clock=steady)
         self.diagnostics = Diagnostics(self, "bag_recorder")
         self.diagnostics.add("recording", lambda: (OK, f"{sum(self.counts.values())} messages", dict(self.counts)))
 

@@ -1,13 +1,14 @@
 """tractor_sim: the simulator at real time on a wall timer, publishing the INTERFACES topics and /clock, and
 steering through the bicycle model from /steering/command while it is engaged (else the built-in driver)."""
 import time
-from dataclasses import replace
+from dataclasses import dataclass, field, replace
 
 from rclpy.node import Node
 from rosgraph_msgs.msg import Clock
 
 from agnav_common.diagnostics import OK, WARN, Diagnostics
 from agnav_common.node_main import main_for
+from agnav_common.parameters import SIGNED, declare, leaves
 from agnav_common.qos import LATCHED_QOS, PUBLISHER_QOS, SENSOR_QOS
 from agnav_common.stamps import to_stamp
 from agnav_msgs.msg import SteeringCommand
@@ -18,27 +19,36 @@ from .sim.scenarios import SCENARIOS
 from .sim.simulator import TractorSimulator
 
 
+@dataclass
+class TractorSimSettings:
+    scenario: str = "asphalt_loop"  # name in agnav_sim_eval.sim.scenarios.SCENARIOS
+    seed: int = 0                   # random seed of the simulated sensor and vehicle noise
+    real_time_factor: float = 1.0   # simulated time per wall time
+    command_timeout_s: float = 0.5  # s: an older /steering/command hands the steering back to the built-in driver
+    exit_when_done: bool = True     # finish the node when the scenario has ended
+    start_standstill_s: float = field(default=-1.0, metadata=SIGNED)  # s at standstill before driving; < 0: the
+    # scenario's own
+
+
+def parameter_entries():
+    """[(name, default, description)] of every parameter (tools/gen_params.py writes the params file from it)."""
+    return leaves(TractorSimSettings())
+
+
 class TractorSimNode(Node):
     """Steps TractorSimulator so that simulated time follows wall time × real_time_factor."""
 
     def __init__(self, **kwargs):
         super().__init__("tractor_sim", **kwargs)
-        self.declare_parameter("scenario", "asphalt_loop")
-        self.declare_parameter("seed", 0)
-        self.declare_parameter("real_time_factor", 1.0)
-        self.declare_parameter("command_timeout_s", 0.5)  # stale steering command -> built-in driver
-        self.declare_parameter("exit_when_done", True)
-        self.declare_parameter("start_standstill_s", -1.0)  # < 0: the scenario's own
-        gp = self.get_parameter
-        scenario = SCENARIOS[gp("scenario").value]
-        if gp("start_standstill_s").value >= 0:
-            driver = replace(scenario.driver, start_standstill_s=float(gp("start_standstill_s").value))
-            scenario = replace(scenario, driver=driver)
-        self.sim = TractorSimulator(scenario, int(gp("seed").value))
+        p = declare(self, TractorSimSettings())
+        if p.scenario not in SCENARIOS:
+            raise ValueError(f"scenario must be one of {sorted(SCENARIOS)}")
+        scenario = SCENARIOS[p.scenario]
+        if p.start_standstill_s >= 0:
+            scenario = replace(scenario, driver=replace(scenario.driver, start_standstill_s=p.start_standstill_s))
+        self.sim = TractorSimulator(scenario, p.seed)
         self.factory = MessageFactory(self.sim)
-        self.rtf = float(gp("real_time_factor").value)
-        self.timeout = float(gp("command_timeout_s").value)
-        self.exit_when_done = bool(gp("exit_when_done").value)
+        self.rtf, self.timeout, self.exit_when_done = p.real_time_factor, p.command_timeout_s, p.exit_when_done
         self.pubs = {topic: self.create_publisher(message_class(kind), topic,
                                                   LATCHED_QOS if topic in LATCHED_TOPICS else PUBLISHER_QOS)
                      for topic, kind in TOPIC_TYPES.items()}
