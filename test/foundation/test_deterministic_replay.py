@@ -56,14 +56,15 @@ def test_two_replays_record_identical_messages(recordings):
 
 def test_recording_equals_the_offline_pipeline(recordings):
     from agnav_bringup.graph_config import load_config
+    from agnav_fusion.navigation_output import body_velocity
     from agnav_sim_eval.offline import replay as offline_replay
     bag, first, _ = recordings
     states, _ = offline_replay(load_config("nsm"), bag)
     graph = read_bag(first, ["/odometry/filtered"])["/odometry/filtered"]
-    offline = np.array([[s.t, *s.position, *s.pose_cov.ravel(), s.speed] for s in states])
+    offline = np.array([[s.t, *s.position, *s.pose_cov.ravel(), *body_velocity(s)[:2]] for s in states])
     published = np.array([[m.header.stamp.sec + m.header.stamp.nanosec * 1e-9, m.pose.pose.position.x,
                            m.pose.pose.position.y, m.pose.pose.position.z, *m.pose.covariance,
-                           m.twist.twist.linear.x] for _, m in graph])
+                           m.twist.twist.linear.x, m.twist.twist.linear.y] for _, m in graph])
     assert published.shape == offline.shape and np.array_equal(published[:, 1:], offline[:, 1:])
     assert np.allclose(published[:, 0], offline[:, 0], rtol=0, atol=1e-6)
 
