@@ -25,7 +25,6 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-from agnav_common.frames import cross
 
 from agnav_fusion import kalman
 from agnav_fusion.gnss_raw import fixing
@@ -36,6 +35,7 @@ from agnav_fusion.gnss_raw.geometry import elevation_azimuth
 from agnav_fusion.gnss_raw.observations import CLIGHT
 from agnav_fusion.ins import earth, error_model as em, feedback
 from agnav_fusion.ins.constraints import CRAB
+from agnav_fusion.ins.lever_arm import lever_velocity
 
 DRIFT = CRAB + 1          # c·receiver clock drift [m/s]
 N_CORE = DRIFT + 1        # ambiguities follow
@@ -90,7 +90,7 @@ def antenna_state(mech, lever_frd, omega_b):
     lat, lon = st.lat, st.lon
     c, r = st.c_b_ned(), ned_to_ecef(lat, lon)
     return (geodetic_to_ecef(lat, lon, st.h) + r @ (c @ lever_frd),
-            r @ (st.v_ned() + c @ cross(omega_b, lever_frd)))
+            r @ (st.v_ned() + lever_velocity(lever_frd, c, omega_b)))
 
 
 def antenna_jacobians(mech, lever_frd, omega_b, n):

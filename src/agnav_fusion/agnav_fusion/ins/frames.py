@@ -8,9 +8,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from agnav_common.frames import cross, wrap_angle
+from agnav_common.frames import wrap_angle
 
-from .lever_arm import imu_to_point_position
+from .lever_arm import imu_to_point_position, lever_velocity
 from .measurements import ENU_TO_NED
 from .mechanization import skew
 
@@ -98,7 +98,7 @@ def base_link_state(sol, mounts, plane, rate_var=(0.0, 0.0, 0.0)):
     lat, lon, h = imu_to_point_position(sol.lat, sol.lon, sol.h, lever, c)
     position = np.array(plane.to_enu(math.degrees(lat), math.degrees(lon), h), dtype=float)
     r_body_enu = NED_TO_ENU @ (c * FRD)                  # base_link FLU -> ENU
-    v_ned = sol.v_ned + c @ cross(sol.omega_b, lever)
+    v_ned = sol.v_ned + lever_velocity(lever, c, sol.omega_b)
     # the mount lever turned by an attitude error moves base_link: δp = φ x (C l), φ ~ N(0, diag(att_var))
     arm = NED_TO_ENU @ skew(c @ lever)
     pose_cov = np.zeros((6, 6))

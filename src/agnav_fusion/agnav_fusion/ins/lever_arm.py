@@ -14,9 +14,14 @@ def antenna_to_imu_position(lat, lon, h, lever_frd, c_b_ned):
     return lat - d[0] / (rm + h), lon - d[1] / ((rn + h) * math.cos(lat)), h + d[2]
 
 
+def lever_velocity(lever_frd, c_b_ned, omega_b):
+    """NED velocity of the point at l^B (FRD) relative to the IMU, turning with the body rates: C (ω x l) (5-5-4)."""
+    return c_b_ned @ cross(omega_b, lever_frd)
+
+
 def antenna_to_imu_velocity(v_ned, lever_frd, c_b_ned, omega_b):
     """IMU velocity (NED) from the antenna's with the ω x l term (5-5-4)."""
-    return np.asarray(v_ned) - c_b_ned @ cross(omega_b, lever_frd)
+    return np.asarray(v_ned) - lever_velocity(lever_frd, c_b_ned, omega_b)
 
 
 def imu_to_point_position(lat, lon, h, lever_frd, c_b_ned):

@@ -8,10 +8,9 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from agnav_common.frames import cross
 
 from . import earth, error_model as em
-from .lever_arm import antenna_to_imu_position, antenna_to_imu_velocity
+from .lever_arm import antenna_to_imu_position, antenna_to_imu_velocity, lever_velocity
 from .mechanization import T, c_cbar_ned
 
 ENU_TO_NED = np.array([[0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, -1.0]])
@@ -110,6 +109,6 @@ class GnssVelocity:
         h[1, [em.VY, em.GAMMA, em.BETA]] = 1.0, vt[0], -vt[1]
         h[2, em.VZ] = 1.0
         cov = ENU_TO_NED @ gnss.vel_cov_enu @ ENU_TO_NED.T
-        lever_v = snap.c_b_ned @ cross(snap.omega_b, self.lever)
+        lever_v = lever_velocity(self.lever, snap.c_b_ned, snap.omega_b)
         cov[:2, :2] += heading_var * float(np.sum(lever_v[:2] ** 2)) * np.eye(2)
         return Linearized(self.name, m @ snap.v_ned - vt, h, m @ cov @ m.T)
