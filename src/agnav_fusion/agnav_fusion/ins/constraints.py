@@ -23,7 +23,7 @@ CRAB = em.N_STATES          # index of the augmented crab state (rad, + body vel
 class NhcSettings:
     """Non-holonomic constraint and crab model (sigmas for a tractor on fields and rough tracks)."""
 
-    enabled: bool = True
+    enabled: bool = True                     # apply the constraint (false: GNSS alone makes heading observable)
     interval: float = 0.2                    # s between constraint updates
     lateral_sigma: float = 0.05              # m/s, white lateral velocity of base_link (sway, steering)
     vertical_sigma: float = 0.08             # m/s, white vertical velocity of base_link (bumps)
