@@ -31,7 +31,7 @@ class AgnavEstimator:
         self.wheel = None          # latest wheel speed (t, speed, variance) not yet fused
         self.raw_heading = 0.0     # relative yaw before the absolute heading exists
         self.heading_known = False  # absolute heading initialised from the GNSS course
-        self.chord = HeadingChord(s.chord_max_turn, s.heading_init_distance, s.heading_valid_sigma)
+        self.chord = HeadingChord(s.chord_max_turn, s.heading_init_distance, s.chord_max_sigma)
         self.still = False         # the latest fix says the vehicle stands still
         self.fix_speed = None      # (epoch, EKF speed after the fix): the fixes' own acceleration
         self.last_fix_t = math.inf  # epoch of the latest fix, accepted or not
@@ -191,7 +191,8 @@ class AgnavEstimator:
 
     def _fix_before_heading(self, snap, t, xy, R, v_ref, vel_var, speed, doppler):
         """No heading yet: decoupled heading and crab, speed fused, the position follows the fixes; the heading comes
-        from the chord of the fixes (heading_chord.py) once it is known within heading_valid_sigma; the receiver's
+        from the chord of the fixes (heading_chord.py) once it is known within chord_max_sigma (published once the
+        filter has it within heading_valid_sigma); the receiver's
         course is a provisional heading meanwhile."""
         m, s, ekf = self.m, self.m.settings, self.ekf
         heading_part = tilt_variance(m.lever, 0.0, 0.0, ekf.P[IPHI, IPHI])  # of R: the lever placed blindly

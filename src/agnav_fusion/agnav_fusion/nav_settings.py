@@ -43,6 +43,7 @@ class NavSensorModuleSettings:
     heading_init_distance: float = 3.0        # m, shortest chord of fixes that initialises the heading
     chord_max_turn: float = 0.35              # rad of gyro turn a chord may span (agnav)
     heading_valid_sigma: float = 0.05         # rad: the heading is published once known this well (agnav)
+    chord_max_sigma: float = 0.15             # rad: a chord this good starts the heading, the fixes refine it (agnav)
     stationary_speed: float = 0.05            # m/s: slower fixes mark the vehicle still (yaw rate zero: gyro bias)
     standstill_sigma: float = 0.005           # m/s (and m/s^2): speed and acceleration of a vehicle at rest
     wheel_speed_sigma: float = 0.05           # m/s, floor of a wheel/radar speed's noise (agnav; /wheel/odometry)
