@@ -23,7 +23,7 @@ def generate_launch_description():
         Node(package='agnav_fusion', executable='nav_sensor_module_node', name='nav_sensor_module', output='screen',
              parameters=[{
                  'estimator': 'agnav',
-                 'heading_valid_sigma': 0.1,
+                 'heading_valid_sigma': 0.2,
                  'tilt_source': 'accelerometer',
                  'roll_kf.tau': 0.05,
                  'pitch_kf.tau': 0.05,

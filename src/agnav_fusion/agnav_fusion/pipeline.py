@@ -15,7 +15,8 @@ Front end (what every estimator needs once):
 - the tilt source: inclinometer messages, or the accelerometer's gravity direction (`tilt_source: accelerometer`).
 The backend (NavSensorModule: estimator `agnav` or `thesis`; InsNavigation: `ins`) guards values and stamps,
 replays late fixes against its IMU history and keeps the covariances. Every backend gets the accelerometer's
-specific force in base_link axes (None when the message says it has none: covariance[0] = -1, REP-145). A
+specific force in base_link axes (None when the message says it has none: covariance[0] = -1, REP-145, or when
+the accelerometer is the tilt source of a non-strapdown backend: its tilt then already holds the acceleration). A
 `strapdown` backend (the INS integrates specific force at the IMU point, on the earth) needs it (an IMU message
 without one is counted `imu_no_accel`) and also gets the base_link -> imu_link translation, the map plane and the 3x3 ENU covariance of
 /gnss/vel (None: unknown) in place of its per-axis horizontal variance.
@@ -112,6 +113,8 @@ class NavigationPipeline:
         accel = None if msg.linear_acceleration_covariance[0] == -1.0 else r @ np.array([a.x, a.y, a.z])
         if self.settings.tilt_source == "accelerometer" and accel is not None:
             self.backend.inclinometer(t, *accelerometer_tilt(accel))
+            if not self.strapdown:  # its tilt already holds the acceleration: no second, independent use of it
+                accel = None
         state = self.backend.imu(t, r @ np.array([w.x, w.y, w.z]), accel)
         if state is not None:
             self.last_imu_t = max(self.last_imu_t, state.t)

@@ -1,9 +1,10 @@
-"""NavigationPipeline's fix/velocity pairing, with a backend that records what reaches it (no ROS)."""
+"""NavigationPipeline's fix/velocity pairing and accelerometer routing, with a backend that records what reaches it
+(no ROS)."""
 import numpy as np
 from agnav_fusion.front_end import InputGuard, InputGuardSettings
 from agnav_fusion.pipeline import FrontEndSettings, NavigationPipeline
 from geometry_msgs.msg import TwistWithCovarianceStamped
-from sensor_msgs.msg import NavSatFix, NavSatStatus
+from sensor_msgs.msg import Imu, NavSatFix, NavSatStatus
 
 LAT, LON = 35.0, 139.0
 
@@ -11,7 +12,13 @@ LAT, LON = 35.0, 139.0
 class Recorder:
     def __init__(self):
         self.guard = InputGuard(InputGuardSettings())
-        self.fixes = []
+        self.fixes, self.specific_force, self.tilts = [], [], []
+
+    def imu(self, t, gyro, specific_force=None):
+        self.specific_force.append(specific_force)
+
+    def inclinometer(self, t, roll, pitch):
+        self.tilts.append((roll, pitch))
 
     def set_mounts(self, *args):
         pass
@@ -41,9 +48,10 @@ def velocity(t, north):
     return msg
 
 
-def pipeline():
+def pipeline(tilt_source="inclinometer"):
     backend = Recorder()
-    p = NavigationPipeline(backend, FrontEndSettings(datum=(LAT, LON, 10.0), velocity_wait=0.0))
+    p = NavigationPipeline(backend, FrontEndSettings(datum=(LAT, LON, 10.0), velocity_wait=0.0,
+                                                     tilt_source=tilt_source))
     p.set_mounts(np.eye(3), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
     return p, backend
 
@@ -63,3 +71,21 @@ def test_slow_10_hz_fixes_reach_the_fix_difference_baseline():
         p.on_fix(fix(100.0 + 0.1 * k, 0.05 * k))
     vel = backend.fixes[-1][2]
     assert vel is not None and abs(vel[1] - 0.5) < 0.01
+
+
+def imu(t, accelerating):
+    msg = stamp(Imu(), t)
+    msg.angular_velocity.z = 0.01 * t
+    msg.linear_acceleration.x, msg.linear_acceleration.z = (0.5 if accelerating else 0.0), 9.81
+    return msg
+
+
+def test_the_accelerometer_reaches_the_backend_once():
+    """As specific force with an inclinometer; as tilt alone when it is the tilt source (its tilt already holds the
+    acceleration: a second use would count it twice)."""
+    p, backend = pipeline()
+    p.on_imu(imu(1.0, True))
+    assert backend.specific_force[-1][0] == 0.5 and not backend.tilts
+    p, backend = pipeline("accelerometer")
+    p.on_imu(imu(1.0, True))
+    assert backend.specific_force[-1] is None and backend.tilts[-1][1] < 0  # acceleration reads as nose up
