@@ -1,5 +1,6 @@
 """Benchmarks: each module here exposes `main(argv) -> int`; `--json` prints one JSON object last. Reports go
 only where the command line says (`--write-docs PATH`); the checked-in ones are docs/benchmarks/*.md."""
+import json
 import pkgutil
 from pathlib import Path
 
@@ -17,3 +18,12 @@ def docs_option(ap, name):
 def write_docs(path, text):
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text(text)
+
+
+def report(args, text, result):
+    """Print the markdown report, write it to --write-docs PATH if given, print the JSON object last if --json."""
+    print(text)
+    if args.write_docs:
+        write_docs(args.write_docs, text)
+    if args.json:
+        print(json.dumps(result))

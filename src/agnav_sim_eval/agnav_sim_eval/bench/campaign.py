@@ -24,7 +24,7 @@ import numpy as np
 import yaml
 
 from agnav_bringup.graph_config import load_config
-from agnav_sim_eval.bench import docs_option, write_docs
+from agnav_sim_eval.bench import docs_option, report
 from agnav_sim_eval.bench.campaign_score import score_run, static_transforms
 from agnav_sim_eval.bench.realdata import replay
 
@@ -201,9 +201,5 @@ def main(argv=None):
               "results, not a report", file=sys.stderr)
     res = run_campaign(args.runs, args.seed, args.jobs, args.duration, args.out, args.sensors)
     text = markdown(res)
-    print(text)
-    if args.write_docs:
-        write_docs(args.write_docs, text)
-    if args.json:
-        print(json.dumps(res))
+    report(args, text, res)
     return 0

@@ -16,7 +16,6 @@ outage starting at 120 s; cost = µs of filter time per IMU sample.
 0.1 mg instability; 0.2 % scale; 100 Hz; antenna 2.2 m from the IMU; outages at 150 s) with NEES-style NIS.
 """
 import argparse
-import json
 import math
 import time
 from pathlib import Path
@@ -29,7 +28,7 @@ from agnav_sim_eval.sim import ins_synthetic as sy
 from agnav_fusion.ins.ekf import InsEkf, InsEkfSettings
 from agnav_fusion.ins.frames import Mounts, base_link_state
 from agnav_fusion.ins.measurements import GnssSample
-from agnav_sim_eval.bench import docs_option, write_docs
+from agnav_sim_eval.bench import docs_option, report
 
 DEG = 180.0 / math.pi
 LEVER = (-1.0, 0.0, -2.0)
@@ -233,9 +232,5 @@ def main(argv=None):
                             "DGPS 1 Hz": synthetic_case(sy.DGPS_1HZ, args.seed)}
     eval_line = Path(args.eval_json).read_text().strip() if args.eval_json else None
     text = markdown(res, eval_line)
-    print(text)
-    if args.write_docs:
-        write_docs(args.write_docs, text)
-    if args.json:
-        print(json.dumps(res))
+    report(args, text, res)
     return 0

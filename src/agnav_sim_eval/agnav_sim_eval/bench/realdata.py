@@ -15,7 +15,6 @@ Cost: bag duration / wall time of the whole replay (graph start-up included) = Ã
 asphalt_loop replay of `agnav run nsm` (the `make run` graph) is timed and scored against its truth as well.
 """
 import argparse
-import json
 import math
 import os
 import subprocess
@@ -30,7 +29,7 @@ from rosbags.highlevel import AnyReader
 
 from agnav_sim_eval.evaluate import KEYS, evaluate_bags, odometry_arrays, read_bag
 from agnav_bringup.graph_config import REPO_ROOT, load_config
-from agnav_sim_eval.bench import docs_option, write_docs
+from agnav_sim_eval.bench import docs_option, report
 from agnav_common.bagio import filter_bag
 from agnav_common.frames import wrap_angle
 from agnav_common.geodesy import LocalTangentPlane
@@ -286,9 +285,5 @@ def main(argv=None):
     args = ap.parse_args(argv)
     results = run(args.only or list(DATASETS), simulated=not args.no_sim)
     text = markdown(results)
-    print(text)
-    if args.write_docs:
-        write_docs(args.write_docs, text)
-    if args.json:
-        print(json.dumps(results))
+    report(args, text, results)
     return 0

@@ -12,7 +12,6 @@ dgps_slope_crab (DGPS 1 Hz, 1.5 m/s across a 5 deg slope, 1.5 deg crab) through 
 default gates, and dgps_slope_crab on perfect state with and without the crab feed-forward.
 """
 import argparse
-import json
 import sys
 
 import numpy as np
@@ -21,7 +20,7 @@ from agnav_control.controllers import CONTROLLERS
 from agnav_control.watchdog_probe import measure_reaction
 
 from agnav_bringup.graph_config import REPO_ROOT
-from agnav_sim_eval.bench import docs_option, write_docs
+from agnav_sim_eval.bench import docs_option, report
 
 RTK = dict(scenario="rtk_straight_fast", manual_distance=3.0, auto_distance=150.0)
 GDS = dict(scenario="gds_straight_slow", manual_distance=5.0, auto_distance=35.0)
@@ -217,11 +216,7 @@ def main(argv=None):
     result = measure(list(range(1, args.seeds + 1)), args.watchdog_trials)
     result.update(measure_acceptance(range(FIRST_REPORT_SEED, FIRST_REPORT_SEED + args.acceptance_seeds)))
     text = table(result)
-    print(text)
-    if args.write_docs:
-        write_docs(args.write_docs, text)
-    if args.json:
-        print(json.dumps(result))
+    report(args, text, result)
     return 0
 
 
