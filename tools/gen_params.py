@@ -26,6 +26,7 @@ NODES = {  # params file -> (node name, module with parameter_entries() and opti
     SRC / "agnav_drivers" / "config" / "adc_sensor.yaml": ("adc_sensor", "agnav_drivers.adc_sensor_node"),
     SRC / "agnav_drivers" / "config" / "nmea_gnss.yaml": ("nmea_gnss", "agnav_drivers.nmea_gnss_node"),
     SRC / "agnav_drivers" / "config" / "ubx_gnss.yaml": ("ubx_gnss", "agnav_drivers.ubx_gnss_node"),
+    SRC / "agnav_drivers" / "config" / "rtcm_base.yaml": ("rtcm_base", "agnav_drivers.rtcm_base_node"),
     SRC / "agnav_drivers" / "config" / "bag_player.yaml": ("bag_player", "agnav_drivers.bag_player_node"),
     SRC / "agnav_drivers" / "config" / "bag_recorder.yaml": ("bag_recorder", "agnav_drivers.bag_recorder_node"),
     SRC / "agnav_sim_eval" / "config" / "tractor_sim.yaml": ("tractor_sim", "agnav_sim_eval.sim_node"),

@@ -26,6 +26,7 @@ setup(
             "bag_recorder = agnav_drivers.bag_recorder_node:main",
             "nmea_gnss_node = agnav_drivers.nmea_gnss_node:main",
             "ubx_gnss_node = agnav_drivers.ubx_gnss_node:main",
+            "rtcm_base_node = agnav_drivers.rtcm_base_node:main",
             "adc_sensor_node = agnav_drivers.adc_sensor_node:main",
             "agnav_csv_import = agnav_drivers.csv_import:main",
         ],

@@ -33,6 +33,8 @@ POSITION_FIX_TYPES = (FIX_SINGLE, FIX_DGPS, FIX_RTK_FLOAT, FIX_RTK_FIXED)
 
 COV_UNKNOWN, COV_APPROXIMATED, COV_DIAGONAL_KNOWN, COV_KNOWN = range(4)
 UNKNOWN_VARIANCE = 99999.0  # variance of an axis the receiver does not give (INTERFACES): m^2, (m/s)^2, rad^2
+GPS_EPOCH_UNIX = 315964800.0  # 1980-01-06T00:00:00Z
+WEEK = 604800.0               # s in a GPS week
 GEOID_MODEL_STD = 2.0       # m, 1x1 deg EGM96 table vs the true geoid (receivers' own tables differ by <= 8 m)
 
 

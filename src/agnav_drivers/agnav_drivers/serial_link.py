@@ -51,7 +51,7 @@ class _Serial:
         self._dev.close()
 
 
-class _Tcp:
+class TcpConnection:
     def __init__(self, s: LinkSettings):
         self._sock = socket.create_connection((s.host, s.tcp_port), timeout=2.0)
 
@@ -93,6 +93,8 @@ class _File:
 
 
 class ByteLink:
+    tcp_class = TcpConnection            # connection for host + tcp_port (a subclass may handshake, e.g. NTRIP)
+
     def __init__(self, settings: LinkSettings):
         self.settings = settings
         self.state = CLOSED
@@ -143,7 +145,7 @@ class ByteLink:
             if s.port:
                 self._conn = _Serial(s)
             elif s.host:
-                self._conn = _Tcp(s)
+                self._conn = self.tcp_class(s)
             else:
                 self._conn = _File(s, self._stop.wait)
         except (OSError, ValueError, serial.SerialException) as exc:

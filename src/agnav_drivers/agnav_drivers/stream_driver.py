@@ -59,12 +59,14 @@ class RateMeter:
 class StreamDriverNode(Node):
     """Reads a ByteLink in a thread and hands bytes with their host receive time to the subclass."""
 
+    link_class = ByteLink
+
     def __init__(self, name: str, hardware: str, settings: StreamSettings, **kwargs):
         super().__init__(name, **kwargs)
         self.settings = declare(self, settings, skip=INTERNAL)
         if self.settings.stamp_source not in STAMP_SOURCES:
             raise ValueError(f"stamp_source must be one of {STAMP_SOURCES}, not {self.settings.stamp_source!r}")
-        self.link = ByteLink(self.settings)
+        self.link = self.link_class(self.settings)
         self.stale_timeout = self.settings.stale_timeout
         self.use_receiver_time = self.settings.stamp_source == "receiver"
         self.last_message_time: float | None = None   # time.monotonic() of the last decoded message
