@@ -88,7 +88,8 @@ class RtcmBaseNode(StreamDriverNode):
 
     def _check(self):
         c = self.decoder.counters
-        counters = {k: getattr(c, k) for k in ("frames", "crc_failures", "parse_errors", "noise_bytes", "epochs")}
+        counters = {k: getattr(c, k) for k in ("frames", "crc_failures", "parse_errors", "noise_bytes", "epochs",
+                                               "no_clock")}
         now = self.get_clock().now().nanoseconds * 1e-9
         detail = {"last_problem": c.last_problem,
                   "last_epoch_age": "never" if self.last_epoch is None else f"{now - self.last_epoch.host_time:.2f}"}

@@ -7,6 +7,8 @@ checked with pyrtcm's CRC-24Q, parsed by pyrtcm and handed to `rtcm_raw.RtcmBase
 * A frame with a valid CRC that pyrtcm cannot decode is counted (`parse_errors`), never raised.
 * RTCM carries the time of week only: the week of each epoch is the one that puts it nearest to the host clock's GPS
   time (`nearest_week`), so a clock within a few days of the truth gives the right week, also at a week rollover.
+  Before the clock is set (earlier than the GPS epoch, e.g. use_sim_time before the first /clock) epochs are counted
+  (`no_clock`) and dropped.
 """
 from __future__ import annotations
 
@@ -37,6 +39,7 @@ class RtcmCounters:
     parse_errors: int = 0      # valid frames pyrtcm could not decode
     noise_bytes: int = 0       # bytes outside any frame
     epochs: int = 0            # observation epochs emitted
+    no_clock: int = 0          # epochs dropped: no clock to take the week from
     by_type: Counter = field(default_factory=Counter)   # message number -> frames
     last_problem: str = ""
 
@@ -89,7 +92,11 @@ class RtcmStream:
         out = []
         for e in events:
             if isinstance(e, GnssObservations):
+                week = nearest_week(e.receiver_tow, host_time)
+                if week < 0:
+                    c.no_clock += 1
+                    continue
                 c.epochs += 1
-                e = replace(e, week=nearest_week(e.receiver_tow, host_time))
+                e = replace(e, week=week)
             out.append(e)
         return out

@@ -122,9 +122,12 @@ def test_stream_is_split_independent_and_weeks_follow_the_clock():
     whole, counters = decoded(data)
     stream, pieces = RtcmStream(), []
     for i in range(0, len(data), 7):
-        pieces += [e for e in stream.feed(data[i:i + 7], 0.0) if isinstance(e, GnssObservations)]
-    assert [replace(e, host_time=0.0, week=0) for e in whole] == [replace(e, week=0) for e in pieces]
+        pieces += [e for e in stream.feed(data[i:i + 7], time.time()) if isinstance(e, GnssObservations)]
+    assert [replace(e, host_time=0.0) for e in whole] == [replace(e, host_time=0.0) for e in pieces]
     assert stream.counters == counters
+    unset = RtcmStream()                                       # sim time before the first /clock: no week
+    assert not any(isinstance(e, GnssObservations) for e in unset.feed(data, 0.0))
+    assert unset.counters.no_clock == 26 and unset.counters.epochs == 0
     assert counters.crc_failures > decoded(F9T)[1].crc_failures and counters.epochs == len(whole) == 26
     start = GPS_EPOCH_UNIX + 2288 * WEEK - 18.0                # UTC unix time at which GPS week 2288 begins
     assert nearest_week(252800.0, start + 252801.0) == 2288
@@ -149,7 +152,7 @@ def test_pty_stream_publishes_base_observations_and_position(ros, tmp_path):
         assert g.wait(lambda: len(g.got[OBS]) >= len(epochs) and g.node.decoder.counters.frames >= counters.frames)
         assert_published_equal(g.got[OBS], epochs)
         values = g.node._check()[2]
-        for key in ("frames", "crc_failures", "parse_errors", "noise_bytes", "epochs"):
+        for key in ("frames", "crc_failures", "parse_errors", "noise_bytes", "epochs", "no_clock"):
             assert values[key] == getattr(counters, key), key
         assert values["gps_week"] == epochs[-1].week
         # latched: a subscriber that joins after the 1005 still gets the base position, once
@@ -164,6 +167,34 @@ def test_pty_stream_publishes_base_observations_and_position(ros, tmp_path):
         assert 43.5 < fix.latitude < 44.5 and -121.7 < fix.longitude < -120.9      # Bend, Oregon
         g.wait(lambda: False, timeout=0.3)
         assert len(g.got["/gnss/base/position"]) == 1 and g.node.published == len(epochs) + 2
+    finally:
+        g.close()
+        device.close()
+
+
+def test_week_and_stamps_follow_the_simulated_clock(ros, tmp_path):
+    """use_sim_time: a /clock on the capture's day (2019-10-17, GPS week 2075) gives that week and those stamps."""
+    from rosgraph_msgs.msg import Clock
+
+    from agnav_common.stamps import to_sec, to_stamp
+    from agnav_msgs.msg import GnssObservations as GnssObservationsMsg
+    epochs, _ = decoded(F9T)
+    sim = GPS_EPOCH_UNIX + 2075 * WEEK + epochs[0].receiver_tow - 18.0
+    device = PtyDevice(str(tmp_path / "ttyBASE"))
+    g = Graph(ros, port=device.path, baud=460800, use_sim_time=True)
+    try:
+        g.listen(GnssObservationsMsg, OBS)
+        clock = g.listener.create_publisher(Clock, "/clock", 10)
+
+        def clock_set():
+            clock.publish(Clock(clock=to_stamp(sim)))
+            return g.node.get_clock().now().nanoseconds > 0
+        assert g.wait(clock_set)
+        assert g.wait(lambda: g.node.link.state == OPEN)
+        threading.Thread(target=device.stream, args=(F9T, 460800, 256), daemon=True).start()
+        assert g.wait(lambda: len(g.got[OBS]) >= 3)
+        assert {m.week for m in g.got[OBS]} == {2075}
+        assert all(to_sec(m.header.stamp) == pytest.approx(sim) for m in g.got[OBS])
     finally:
         g.close()
         device.close()
