@@ -29,7 +29,7 @@ def test_generated_params_files_are_up_to_date():
     assert {path.name for path, (node, _) in gen_params.NODES.items() if node in NODES} == {
         "steering_node.yaml", "heading_node.yaml", "gnss_correction_node.yaml", "attitude_node.yaml",
         "adc_sensor.yaml", "nmea_gnss.yaml", "ubx_gnss.yaml", "bag_player.yaml", "bag_recorder.yaml",
-        "tractor_sim.yaml"}
+        "tractor_sim.yaml", "rtcm_base.yaml"}
 
 
 def _required(node_name, tmp_path):
