@@ -6,6 +6,9 @@ import numpy as np
 
 def wrap_angle(a):
     """Wrap an angle (rad, scalar or array) to (-pi, pi]."""
+    if isinstance(a, float):  # per-sample paths: float % is np.mod, the same bits without numpy's overhead
+        w = (a + math.pi) % (2.0 * math.pi) - math.pi
+        return math.pi if w == -math.pi else float(w)
     w = np.mod(np.asarray(a, dtype=float) + math.pi, 2.0 * math.pi) - math.pi
     w = np.where(w == -math.pi, math.pi, w)
     return float(w) if np.ndim(w) == 0 else w
@@ -42,14 +45,19 @@ def rotation_matrix(roll, pitch, yaw):
     ])
 
 
+def _as_float(x):
+    """x itself if a float, else a float array."""
+    return x if isinstance(x, float) else np.asarray(x, dtype=float)
+
+
 def yaw_from_heading(heading):
     """ENU yaw (CCW from east) from a heading clockwise from north (thesis φ); rad."""
-    return wrap_angle(math.pi / 2 - np.asarray(heading, dtype=float))
+    return wrap_angle(math.pi / 2 - _as_float(heading))
 
 
 def heading_from_yaw(yaw):
     """Heading clockwise from north (thesis φ) from ENU yaw; rad, wrapped to (-pi, pi]."""
-    return wrap_angle(math.pi / 2 - np.asarray(yaw, dtype=float))
+    return wrap_angle(math.pi / 2 - _as_float(yaw))
 
 
 def cross(a, b):

@@ -23,6 +23,7 @@ from rosgraph_msgs.msg import Clock
 from tqdm import tqdm
 
 from agnav_common.diagnostics import OK, WARN, Diagnostics
+from agnav_common.message_factory import new_message
 from agnav_common.node_main import main_for
 from agnav_common.parameters import declare, leaves
 from agnav_common.qos import LATCHED_QOS, SENSOR_QOS
@@ -207,7 +208,7 @@ class BagPlayerNode(Node):
         """Publish one bag message (and /clock); False when the writer is full and it must be retried."""
         if self.clock_pub is not None and msg.stamp_ns > self._last_clock:
             self._last_clock = msg.stamp_ns
-            clock = Clock()
+            clock = new_message(Clock)
             clock.clock.sec, clock.clock.nanosec = divmod(msg.stamp_ns, 1_000_000_000)  # the bag time exactly
             self.clock_pub.publish(clock)
         pub = self.publishers_.get(msg.topic)

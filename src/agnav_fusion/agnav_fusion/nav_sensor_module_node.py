@@ -49,7 +49,7 @@ def imu_message(s, frame_id, max_yaw_variance=None, stamp=None, quat=None):
         cov[2, 2] = min(cov[2, 2], max_yaw_variance)
     msg.orientation_covariance = cov.ravel()
     w = msg.angular_velocity
-    w.x, w.y, w.z = map(float, s.rates)
+    w.x, w.y, w.z = s.rates.tolist()
     msg.angular_velocity_covariance = s.twist_cov[3:, 3:].ravel()
     msg.linear_acceleration_covariance[0] = -1.0
     return msg
@@ -63,13 +63,13 @@ def odometry_message(s, frames, stamp=None, quat=None):
     odom.header.frame_id = frames["map"]
     odom.child_frame_id = frames["base"]
     pose = odom.pose.pose
-    pose.position.x, pose.position.y, pose.position.z = map(float, s.position)
+    pose.position.x, pose.position.y, pose.position.z = s.position.tolist()
     q = pose.orientation
     q.x, q.y, q.z, q.w = quaternion_from_euler(*s.rpy) if quat is None else quat
     odom.pose.covariance = s.pose_cov.ravel()
     tw = odom.twist.twist
     tw.linear.x, tw.linear.y, twist_cov = body_velocity(s)
-    tw.angular.x, tw.angular.y, tw.angular.z = map(float, s.rates)
+    tw.angular.x, tw.angular.y, tw.angular.z = s.rates.tolist()
     odom.twist.covariance = twist_cov.ravel()
     return odom
 

@@ -13,24 +13,25 @@ class OdomFrame:
 
     def __init__(self):
         self.t = None
-        self.xyz = None
+        self.xyz = None  # (x, y, z) floats: Python arithmetic on scalars, the same bits as numpy's
         self.yaw = 0.0
 
     def update(self, t, position, rpy, speed, yaw_rate):
         roll, pitch, yaw = (float(v) for v in rpy)
         if self.t is None or t < self.t:
-            self.xyz, self.yaw = np.array(position, dtype=float), yaw
+            self.xyz, self.yaw = tuple(float(v) for v in position), yaw
         else:
             dt = t - self.t
             self.yaw = math.remainder(self.yaw + yaw_rate * dt, 2 * math.pi)
-            cp = math.cos(pitch)  # REP-103: positive pitch is nose down
-            self.xyz = self.xyz + speed * dt * np.array([math.cos(self.yaw) * cp, math.sin(self.yaw) * cp,
-                                                         -math.sin(pitch)])
+            cp, step = math.cos(pitch), float(speed * dt)  # REP-103: positive pitch is nose down
+            x, y, z = self.xyz
+            self.xyz = (x + step * (math.cos(self.yaw) * cp), y + step * (math.sin(self.yaw) * cp),
+                        z + step * -math.sin(pitch))
         self.t = t
         # same roll and pitch in both frames (Rz Ry Rx): map <- odom is the yaw difference alone
         d = yaw - self.yaw
         c, s = math.cos(d), math.sin(d)
-        trans = np.array([position[0] - (c * self.xyz[0] - s * self.xyz[1]),
-                          position[1] - (s * self.xyz[0] + c * self.xyz[1]), position[2] - self.xyz[2]])
-        return self.xyz, quaternion_from_euler(roll, pitch, self.yaw), trans, (0.0, 0.0, math.sin(d / 2),
-                                                                              math.cos(d / 2))
+        x, y, z = self.xyz
+        trans = np.array([position[0] - (c * x - s * y), position[1] - (s * x + c * y), position[2] - z])
+        return np.array(self.xyz), quaternion_from_euler(roll, pitch, self.yaw), trans, (0.0, 0.0, math.sin(d / 2),
+                                                                                        math.cos(d / 2))
