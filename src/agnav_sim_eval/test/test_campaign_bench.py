@@ -25,3 +25,20 @@ def test_campaign_two_short_runs_json_keys():
     assert scored and all(r["floor_rms_cm"] > 0 and r["horizontal_rms_cm"] > 0 for r in scored)
     assert {r["config"] for r in res["rows"]} <= {"nsm", "ins"}
     assert "| horizontal RMS / receiver floor |" in proc.stdout
+
+
+def test_outages_are_found_in_the_fixes_and_scored_on_their_own():
+    import numpy as np
+    from agnav_sim_eval.bench.campaign_score import RECOVERY_S, outage_rows, outages
+
+    fix_t = np.concatenate([np.arange(0.0, 20.0, 0.2), np.arange(50.0, 80.0, 0.2)])  # 5 Hz, 30 s pause
+    assert outages(fix_t, 0.0, 80.0) == [(fix_t[99], 50.0)]
+    assert outages(fix_t, 0.0, 85.0) == [(fix_t[99], 50.0), (fix_t[-1], 85.0)]  # fixes gone until the end
+    assert outages(fix_t, 30.0, 80.0) == []  # before the first output: not scored
+    t = np.arange(0.0, 80.0, 0.01)
+    truth = {"t": t, "x": 0.8 * t, "y": np.zeros_like(t)}  # 0.8 m/s east
+    drift = np.where((t > 19.8) & (t < 50.0), (t - 19.8) * 0.05, 0.0)  # 5 cm/s, gone when the fixes return
+    series = {"t": t, "east": drift * 100, "north": np.full_like(t, 3.0)}
+    (row,) = outage_rows(series, truth, outages(fix_t, 0.0, 80.0))
+    assert abs(row["travelled_m"] - 0.8 * 30.2) < 0.05 and abs(row["drift_m"] - 1.51) < 0.01
+    assert abs(row["drift_share"] - 1.51 / 24.16) < 1e-3 and abs(row["after_cm"] - 3.0) < 1e-9 and RECOVERY_S == 10.0
