@@ -44,10 +44,11 @@ def imu_message(s, frame_id, max_yaw_variance=None, stamp=None, quat=None):
     msg.header.frame_id = frame_id
     q = msg.orientation
     q.x, q.y, q.z, q.w = quaternion_from_euler(*s.rpy) if quat is None else quat
-    cov = s.pose_cov[3:, 3:].copy()
+    cov = s.pose_cov[3:, 3:]
     if max_yaw_variance is not None:
+        cov = cov.copy()
         cov[2, 2] = min(cov[2, 2], max_yaw_variance)
-    msg.orientation_covariance = cov.ravel()
+    msg.orientation_covariance = cov.ravel()  # a copy: the block is not contiguous
     w = msg.angular_velocity
     w.x, w.y, w.z = s.rates.tolist()
     msg.angular_velocity_covariance = s.twist_cov[3:, 3:].ravel()
