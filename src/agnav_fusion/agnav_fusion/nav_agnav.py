@@ -35,6 +35,7 @@ class AgnavEstimator:
         self.still = False         # the latest fix says the vehicle stands still
         self.fix_speed = None      # (epoch, EKF speed after the fix): the fixes' own acceleration
         self.last_fix_t = math.inf  # epoch of the latest fix, accepted or not
+        self.alpha = np.zeros(3)   # rad/s^2, low-passed angular acceleration (lever-arm acceleration)
         self.fix_accel = 0.0       # m/s^2, speed change between fixes: compensates the inclinometer in accelerometer
         #                            mode (the accelerometer's own along-track reading holds the pitch: circular)
 
@@ -91,17 +92,19 @@ class AgnavEstimator:
 
     def _lever_acceleration(self, gyro, prev, dt):
         """Body (FLU) acceleration of the attitude package relative to base_link: alpha x r + w x (w x r), alpha
-        from gyro differences (its noise telescopes in the speed integral; the inclinometer lag filters it). The
-        IMU sits in the package (incl_lever_flu)."""
-        r = self.m.settings.incl_lever_flu
-        alpha = (gyro - prev.body_rates) / dt if prev is not None and dt > 0 else np.zeros(3)
-        return cross(alpha, r) + cross(gyro, cross(gyro, r))
+        from gyro differences through a lever_accel_tau low-pass (a vibratory gyro's noise differentiated per sample
+        is metres per s^2 at the package; sway passes). The IMU sits in the package (incl_lever_flu)."""
+        s = self.m.settings
+        if prev is not None and dt > 0:
+            self.alpha += (1.0 - math.exp(-dt / s.lever_accel_tau)) * ((gyro - prev.body_rates) / dt - self.alpha)
+        r = s.incl_lever_flu
+        return cross(self.alpha, r) + cross(gyro, cross(gyro, r))
 
     def _kinematic_acceleration(self, gyro, lever_acc):
         """Body (FLU) acceleration of the inclinometer: forward (accelerometer or A state), centripetal V*wz,
         and the lever-arm terms; -> (acceleration, variances of its forward and lateral parts)."""
         ekf = self.ekf
-        if ekf.x is None:
+        if ekf.x is None or self.still:  # standing still: no acceleration but the lever's (the gyro's sway)
             return lever_acc, np.zeros(2)
         if ekf.accel_mode:  # the fixes' speed change, smoothed: pitch-independent
             accel, accel_var = self.fix_accel, 0.0
@@ -164,7 +167,7 @@ class AgnavEstimator:
             elif verdict:
                 ekf.update(y, S, H, R)
             if self.still and doppler:  # standing: zero speed (noise has no direction)
-                self._fuse(ekf.standstill_innovation(s.standstill_sigma ** 2), gated=False)
+                self._fuse(self._standstill(speed), gated=False)
             elif s.use_gnss_velocity and v_ref is not None and not differenced:  # even when its fix is refused
                 Rv = (vel_var + self.m.lever_velocity_variance()) * np.eye(2)
                 y, S, d2, H = ekf.velocity_innovation(v_ref, Rv)
@@ -200,7 +203,7 @@ class AgnavEstimator:
             ekf.P[i, :] = ekf.P[:, i] = 0.0
             ekf.P[i, i] = var
         if self.still and doppler:
-            self._fuse(ekf.standstill_innovation(s.standstill_sigma ** 2), gated=False)
+            self._fuse(self._standstill(speed), gated=False)
         elif doppler and speed > 3.0 * math.sqrt(vel_var):  # (a slower norm is biased by the noise)
             # needs no heading; ungated: the start of motion outruns the speed model, and nothing is published yet
             self._fuse(ekf.speed_innovation(speed, vel_var), gated=False)
@@ -232,6 +235,11 @@ class AgnavEstimator:
         ekf.x[IPHI] = math.remainder(course - crab, 2 * math.pi)
         ekf.P[IPHI, :] = ekf.P[:, IPHI] = -ekf.P[:, IC:IR] @ h
         ekf.P[IPHI, IPHI] = var + crab_var
+
+    def _standstill(self, speed):
+        """Standstill innovation at a receiver speed below the still threshold: zero within that speed (a creeping
+        or just stopping vehicle is not held at exactly zero; its position would be pulled back through the track)."""
+        return self.ekf.standstill_innovation(self.m.settings.standstill_sigma ** 2 + speed ** 2)
 
     def _doppler(self, vel, vel_var):
         """True for a receiver velocity (variance at the velocity_sigma floor), not one from fix differences:

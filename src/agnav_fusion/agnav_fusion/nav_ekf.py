@@ -31,8 +31,8 @@ DIAGN = np.diag_indices(N)
 class NavEKFSettings:
     rate_noise: float = 0.003      # rad/s/sqrt(Hz) heading random walk from gyro noise
     bias_walk: float = 1.0e-4      # rad/s/sqrt(s) yaw-gyro bias random walk
-    jerk_noise: float = 0.1        # m/s^3/sqrt(Hz) longitudinal jerk (no accelerometer)
-    accel_tau: float = 2.0         # s, longitudinal acceleration is Gauss-Markov (decays to 0 without fixes)
+    jerk_noise: float = 0.05       # m/s^3/sqrt(Hz) longitudinal jerk (no accelerometer)
+    accel_tau: float = 6.0         # s, longitudinal acceleration is Gauss-Markov (starts and stops last seconds)
     speed_walk: float = 0.02       # m/s/sqrt(s) speed random walk (throttle, load, wheel slip changes)
     accel_noise: float = 0.1       # m/s^2/sqrt(Hz) along-track accelerometer: vibration and sway residuals
     accel_bias_walk: float = 0.005  # m/s^2/sqrt(s) accelerometer bias + gravity-compensation (pitch) error walk

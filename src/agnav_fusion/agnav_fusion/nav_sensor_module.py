@@ -268,6 +268,8 @@ class NavSensorModule:
             position[2] = self.last_fix[1][2]
             pose_cov[2, 2] = self.last_fix[2][2, 2]
         speed, heading_valid, position_valid = self.estimator.output(snap, position, pose_cov, twist_cov)
+        # the attitude error that placed every recent fix on base_link is slow: averaging the fixes leaves it
+        pose_cov[:2, :2] += tilt_correction.tilt_variance(self.lever, min(vr, big), min(vp, big), 0.0) * np.eye(2)
         rates = snap.body_rates + self._rate_corrections()
         rpy = np.array([snap.roll, -snap.pitch, math.remainder(math.pi / 2 - snap.heading, 2 * math.pi)])
         dead_reckoning = snap.t - self._last_accepted_t > s.gnss_timeout
