@@ -1,6 +1,8 @@
 """rosbag2 helpers for agnav: the type store (ROS 2 Kilted standard types plus agnav_msgs and tf2_msgs from .msg
 files), bag filtering, and recordings that survive a killed recorder (flushed chunks, recover_bag)."""
+import array
 import importlib
+import itertools
 import os
 import shutil
 import struct
@@ -10,6 +12,7 @@ from functools import lru_cache
 from io import BytesIO
 from pathlib import Path
 
+import numpy
 from rosbags.typesys import Stores, get_typestore, get_types_from_msg
 
 INTERFACE_PACKAGES = ("agnav_msgs", "tf2_msgs")
@@ -64,7 +67,7 @@ def cdr(msg):
             from rclpy.serialization import serialize_message
             return serialize_message(msg)
         try:
-            writer = _coder(type(msg), {}, "write")
+            writer = _Coder(type(msg), "write").function
             ok = _written(writer, msg) == _round_trip(msg, msgtype)
         except Exception:  # noqa: BLE001  (an unsupported field)
             ok = False
@@ -102,7 +105,7 @@ def from_cdr(data, msg_type):
     if msg_type not in _READERS:
         from rclpy.serialization import deserialize_message
         try:
-            reader = _coder(msg_type, {}, "read")
+            reader = _Coder(msg_type, "read").function
             ok = data[1] == 1 and reader(memoryview(data)[4:], 0)[0] == deserialize_message(data, msg_type)
         except Exception:  # noqa: BLE001  (an unsupported field)
             ok = False
@@ -115,24 +118,18 @@ def from_cdr(data, msg_type):
 
 
 def _layout(cls):
-    """The fields of an rclpy message class as CDR items: ('scalars', names, struct format, size) for a run of
-    scalars of one size, ('string', name), ('array', name, dtype, n, size), ('sequence', name, typecode, size),
-    ('message', name, class), ('messages', name, class) for a sequence of messages. TypeError: unsupported."""
-    import importlib
-
+    """The fields of an rclpy message class as CDR items: ('scalar', name, struct code, size), ('string', name),
+    ('array', name, dtype, n, size), ('sequence', name, typecode, size), ('message', name, class),
+    ('messages', name, class) for a sequence of messages. TypeError: unsupported."""
     def message(ftype):
         package, name = ftype.split("/")
         return getattr(importlib.import_module(f"{package}.msg"), name)
 
-    items, fields = [], list(cls.get_fields_and_field_types().items())
-    for name, ftype in fields:
+    items = []
+    for name, ftype in cls.get_fields_and_field_types().items():
         base, _, rest = ftype.partition("[")
         if ftype in _SCALAR:
-            size = struct.calcsize(_SCALAR[ftype])
-            if items and items[-1][0] == "scalars" and items[-1][3] == size:  # contiguous after one alignment
-                items[-1] = ("scalars", items[-1][1] + [name], items[-1][2] + _SCALAR[ftype], size)
-            else:
-                items.append(("scalars", [name], "<" + _SCALAR[ftype], size))
+            items.append(("scalar", name, _SCALAR[ftype], struct.calcsize(_SCALAR[ftype])))
         elif base == "string" or base.startswith("string<="):
             items.append(("string", name))
         elif rest and base in _NUMERIC:
@@ -149,61 +146,89 @@ def _layout(cls):
     return items
 
 
-def _align(size, indent="  "):
+def _align(size, indent):
     return [f"{indent}pos = (pos + {size - 1}) & -{size}"] if size > 1 else []
 
 
-def _pad(size, indent="  "):  # buf holds the 4-byte encapsulation header before the payload
+def _pad(size, indent):  # buf holds the 4-byte encapsulation header before the payload
     return [f"{indent}buf += ZEROS[-(len(buf) - 4) % {size}]"] if size > 1 else []
 
 
-def _coder(cls, made, kind):
-    """Generated `read(mv, pos) -> (message, pos)` (pos relative to the CDR payload) or `write(msg, buf)` (appends
-    to a bytearray that starts with the encapsulation header) for an rclpy message class."""
-    if (cls, kind) in made:
-        return made[cls, kind]
-    env = {"new": object.__new__, "cls": cls, "unpack": struct.unpack_from, "pack": struct.pack,
-           "check": cls()._check_fields, "ZEROS": [bytes(n) for n in range(8)]}
-    read = kind == "read"
-    lines = ["def read(mv, pos):", "  o = new(cls)", "  o._check_fields = check"] if read else ["def write(o, buf):"]
-    for item in _layout(cls):
-        name = item[1]
-        if item[0] == "scalars":
-            names, fmt, size = ", ".join("o._" + n for n in name), item[2], item[3]
-            lines += (_align(size) + [f"  {names}, = unpack('{fmt}', mv, pos)", f"  pos += {struct.calcsize(fmt)}"]
-                      if read else _pad(size) + [f"  buf += pack('{fmt}', {names})"])
-        elif item[0] == "string":
-            lines += (_align(4) + ["  n = unpack('<I', mv, pos)[0]", f"  o._{name} = str(mv[pos + 4:pos + 3 + n], 'utf-8')",
-                                   "  pos += 4 + n"]
-                      if read else _pad(4) + [f"  e = o._{name}.encode()", "  buf += pack('<I', len(e) + 1)",
-                                              "  buf += e", "  buf += ZEROS[1]"])
-        elif item[0] == "array":
-            dtype, n, size = item[2:]
-            env["numpy"] = importlib.import_module("numpy")
-            lines += (_align(size) + [f"  o._{name} = numpy.frombuffer(mv, numpy.{dtype}, {n}, pos).copy()",
-                                      f"  pos += {n * size}"]
-                      if read else _pad(size) + [f"  if len(o._{name}) != {n}:", f"    raise ValueError('{name}')",
-                                                 f"  buf += numpy.asarray(o._{name}, numpy.{dtype}).tobytes()"])
-        elif item[0] == "sequence":
-            code, size = item[2:]
-            env["array"] = importlib.import_module("array").array
-            lines += (_align(4) + ["  n = unpack('<I', mv, pos)[0]", "  pos += 4", f"  o._{name} = array('{code}')",
-                                   "  if n:"] + _align(size, "    ") +
-                      [f"    o._{name}.frombytes(mv[pos:pos + n * {size}])", f"    pos += n * {size}"]
-                      if read else _pad(4) + [f"  buf += pack('<I', len(o._{name}))", f"  if len(o._{name}):"] +
-                      _pad(size, "    ") + [f"    buf += array('{code}', o._{name}).tobytes()"])
-        else:
-            env[f"c_{name}"] = _coder(item[2], made, kind)
-            if item[0] == "message":
-                lines.append(f"  o._{name}, pos = c_{name}(mv, pos)" if read else f"  c_{name}(o._{name}, buf)")
-            else:
-                lines += (_align(4) + ["  n = unpack('<I', mv, pos)[0]", "  pos += 4", f"  o._{name} = items = []",
-                                       "  for _ in range(n):", f"    x, pos = c_{name}(mv, pos)", "    items.append(x)"]
-                          if read else _pad(4) + [f"  buf += pack('<I', len(o._{name}))", f"  for x in o._{name}:",
-                                                  f"    c_{name}(x, buf)"])
-    exec("\n".join(lines + (["  return o, pos"] if read else [])), env)  # noqa: S102  (from the definition)
-    made[cls, kind] = env["read" if read else "write"]
-    return made[cls, kind]
+class _Coder:
+    """`_Coder(cls, "read").function`: a generated `read(mv, pos) -> (message, pos)` (pos relative to the CDR payload);
+    "write": `write(msg, buf)` (appends to a bytearray that starts with the encapsulation header). Nested messages are
+    inlined, and a run of scalars whose sizes do not grow is one struct call: CDR aligns every scalar to its size and
+    nothing else (no struct padding), so only the run's first scalar needs aligning."""
+
+    def __init__(self, cls, kind):
+        self.read = kind == "read"
+        self.env = {"new": object.__new__, "unpack": struct.unpack_from, "pack": struct.pack, "numpy": numpy,
+                    "array": array.array, "ZEROS": [bytes(n) for n in range(8)]}
+        self.lines, self.run, self.count = [], [], itertools.count()
+        self.lines += ["def read(mv, pos):"] + self.new("o", cls, "  ") if self.read else ["def write(o, buf):"]
+        self.fields(cls, "o", "  ")
+        self.flush("  ")
+        exec("\n".join(self.lines + (["  return o, pos"] if self.read else [])), self.env)  # noqa: S102
+        self.function = self.env[kind]
+
+    def new(self, var, cls, indent):
+        """Code creating the message `var` of class cls (a reader's)."""
+        n = next(self.count)
+        self.env[f"c{n}"], self.env[f"k{n}"] = cls, cls()._check_fields
+        return [f"{indent}{var} = new(c{n})", f"{indent}{var}._check_fields = k{n}"]
+
+    def flush(self, indent):
+        """Code for the pending run of scalars [(field, struct code, size)]."""
+        if not self.run:
+            return
+        fields, fmt = ", ".join(f for f, _, _ in self.run), "<" + "".join(c for _, c, _ in self.run)
+        self.lines += (_align(self.run[0][2], indent) + [f"{indent}{fields}, = unpack('{fmt}', mv, pos)",
+                                                        f"{indent}pos += {struct.calcsize(fmt)}"]
+                       if self.read else _pad(self.run[0][2], indent) + [f"{indent}buf += pack('{fmt}', {fields})"])
+        self.run = []
+
+    def fields(self, cls, obj, i):
+        """Code for the fields of message `obj` (a local variable) of class cls, indented by i."""
+        read, lines = self.read, self.lines
+        for item in _layout(cls):
+            kind, f = item[0], f"{obj}._{item[1]}"
+            if kind == "scalar":
+                if self.run and item[3] > self.run[-1][2]:
+                    self.flush(i)
+                self.run.append((f, item[2], item[3]))
+                continue
+            if kind == "message":  # its scalars may continue the run
+                sub = f"m{next(self.count)}"
+                lines += self.new(sub, item[2], i) + [f"{i}{f} = {sub}"] if read else [f"{i}{sub} = {f}"]
+                self.fields(item[2], sub, i)
+                continue
+            self.flush(i)
+            n = f"n{next(self.count)}"  # an element count (read) or encoded string (write)
+            count = (_align(4, i) + [f"{i}{n} = unpack('<I', mv, pos)[0]", f"{i}pos += 4"] if read
+                     else _pad(4, i) + [f"{i}buf += pack('<I', len({f}))"])
+            if kind == "string":
+                lines += (count + [f"{i}{f} = str(mv[pos:pos + {n} - 1], 'utf-8')", f"{i}pos += {n}"] if read
+                          else _pad(4, i) + [f"{i}{n} = {f}.encode()", f"{i}buf += pack('<I', len({n}) + 1)",
+                                             f"{i}buf += {n}", f"{i}buf += ZEROS[1]"])
+            elif kind == "array":
+                dtype, size, end = item[2], item[4], item[3] * item[4]
+                lines += (_align(size, i) + [f"{i}{f} = numpy.frombuffer(mv, numpy.{dtype}, {item[3]}, pos).copy()",
+                                             f"{i}pos += {end}"] if read
+                          else _pad(size, i) + [f"{i}if len({f}) != {item[3]}:", f"{i}  raise ValueError('{item[1]}')",
+                                                f"{i}buf += numpy.asarray({f}, numpy.{dtype}).tobytes()"])
+            elif kind == "sequence":
+                code, size = item[2:]
+                lines += count + ([f"{i}{f} = array('{code}')", f"{i}if {n}:"] + _align(size, i + "  ")
+                                  + [f"{i}  {f}.frombytes(mv[pos:pos + {n} * {size}])", f"{i}  pos += {n} * {size}"]
+                                  if read else [f"{i}if len({f}):"] + _pad(size, i + "  ")
+                                  + [f"{i}  buf += array('{code}', {f}).tobytes()"])
+            else:  # a sequence of messages: the element's code in a loop
+                sub = f"m{next(self.count)}"
+                lines += count + ([f"{i}{f} = {n}_items = []", f"{i}for _ in range({n}):"]
+                                  + self.new(sub, item[2], i + "  ") + [f"{i}  {n}_items.append({sub})"]
+                                  if read else [f"{i}for {sub} in {f}:"])
+                self.fields(item[2], sub, i + "  ")
+                self.flush(i + "  ")
 
 
 def filter_bag(src, dst, keep):
