@@ -181,3 +181,38 @@ def test_aligns_from_its_own_fix_track_without_any_velocity():
     late = err.t > 40.0
     assert math.degrees(np.sqrt(np.mean(err.att[late, 2] ** 2))) < 1.0
     assert np.all(np.abs(err.att[late, 2]) < 3.0 * err.heading_sigma[late])
+
+
+def _cross_slope(seed, slide_gain, roll=math.radians(8.0), speed=3.5, duration=70.0):
+    """Straight run across a slope (right side down), sliding downhill: the velocity turned right of the body x
+    axis by slide_gain x sin(roll) (the attitude of one heading, the path of the course)."""
+    crab = slide_gain * math.sin(roll)
+    segs = [(2.0, 0.0, 0.0), (speed, 1.0, 0.0), (duration, 0.0, 0.0)]
+    tilt = lambda t: (roll + math.radians(0.5) * math.sin(2.1 * t), 0.0)      # noqa: E731 (sway)
+    body, path = (sy.drive(segs, heading0=0.7 + c, tilt=tilt) for c in (0.0, crab))
+    traj = sy.Trajectory(path.t, path.lat, path.lon, path.h, path.v_ned, body.c_b_ned)
+    gyro, accel = sy.ideal_imu(traj)
+    rng = np.random.default_rng(seed)
+    g, a, _, _ = sy.MemsGrade().corrupt(gyro, accel, 0.01, rng)
+    lever = (0.0, 0.0, -1.5)
+    return traj, g, a, sy.gnss_samples(traj, gyro, lever, sy.RTK_5HZ, rng), lever
+
+
+@pytest.mark.parametrize("seed", [21, 22])
+def test_downhill_slide_is_not_taken_for_heading(seed):
+    """Issue 15: on a cross slope the tractor slides downhill; on a straight line GNSS cannot tell that crab from
+    heading, so the crab's roll-driven mean keeps it out of the heading (before: the slide went into the yaw)."""
+    traj, g, a, gnss, lever = _cross_slope(seed, slide_gain=0.25)
+    ekf = InsEkf(InsEkfSettings(lever_gnss_frd=lever))
+    err = sy.run_ins(ekf, traj, g, a, gnss)
+    late = err.t > 30.0
+    assert math.degrees(np.sqrt(np.mean(err.att[late, 2] ** 2))) < 0.6     # slide 2.0 deg
+    assert np.all(np.abs(err.att[late, 2]) < 3.0 * err.heading_sigma[late])
+    assert ekf.crab > 0.0                                                      # downhill (right)
+
+
+def test_crab_mean_slides_downhill_once_aligned():
+    s = NhcSettings(crab_roll_mean=0.2)
+    assert s.crab_mean(math.radians(6.0)) == pytest.approx(0.2 * math.sin(math.radians(6.0)))   # right side down
+    assert s.crab_mean(-math.radians(6.0)) < 0.0                                                # left side down
+    assert s.crab_mean(math.radians(6.0), heading_sigma=math.radians(20.0)) == 0.0              # still aligning

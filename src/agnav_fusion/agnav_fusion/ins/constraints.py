@@ -2,9 +2,12 @@
 
 A wheeled vehicle's base_link (rear-axle centre on the ground) moves along its body x axis: its body lateral
 velocity is speed x crab (side slip, sliding on cross slopes) and its vertical velocity is zero, each up to a
-white part (sway, bumps). The crab angle is an augmented Gauss-Markov error state whose steady sigma grows with the
-roll (crab builds up on cross slopes). Same closed-loop conventions as `measurements`: x = computed - true, z = h(x̂)
-- measured, so the INS velocity and attitude rows follow from how `feedback.apply` corrects the state.
+white part (sway, bumps). The crab angle is an augmented Gauss-Markov error state about a roll-driven mean: a tractor
+on a cross slope slides downhill, never uphill, by about crab_roll_mean x sin(roll) (tyre side force m g sin(roll)
+over the cornering stiffness); its steady sigma grows with the roll (the slide's spread: soil, tyres, load). On a
+straight line crab and heading are not separable from GNSS: without the mean the course offset goes into the heading.
+Same closed-loop conventions as `measurements`: x = computed - true, z = h(x̂) - measured, so the INS velocity and
+attitude rows follow from how `feedback.apply` corrects the state.
 """
 import math
 from dataclasses import dataclass
@@ -29,8 +32,16 @@ class NhcSettings:
     vertical_sigma: float = 0.08             # m/s, white vertical velocity of base_link (bumps)
     speed_sigma_gain: float = 0.02           # extra sigma per m/s of speed (both axes: rougher when faster)
     crab_sigma: float = math.radians(0.5)    # rad, steady crab on level ground
-    crab_roll_gain: float = 0.4              # rad of crab sigma per rad of roll (cross slope)
+    crab_roll_mean: float = 0.2              # expected crab per sin(roll) (downhill): weight over the tyres' cornering
+                                             # stiffness, 3-8 per rad on soil -> 0.12-0.33
+    crab_roll_gain: float = 0.15             # rad of crab sigma per rad of roll (spread of that slide)
+    crab_mean_heading_sigma: float = math.radians(5.0)  # rad, the slide's mean applies once the heading sigma is
+                                             # below this (aligning: a course offset is mostly heading error)
     crab_tau: float = 20.0                   # s, crab correlation time
+
+    def crab_mean(self, roll, heading_sigma=0.0):
+        """Expected crab at this roll (FRD: + right, roll + right side down) [rad]; 0 while aligning."""
+        return self.crab_roll_mean * math.sin(roll) if heading_sigma < self.crab_mean_heading_sigma else 0.0
 
     def crab_var(self, roll):
         """Steady crab variance at this roll [rad^2]."""

@@ -197,7 +197,7 @@ class InsEkf:
 
     def propagate_covariance(self, p, dt, q_extra=()):
         """Φ P Φᵀ + U Δt (5-9-4, 5-6-2), Φ = I + F Δt over dt at the last mechanization step; crab: first-order
-        Gauss-Markov with its steady σ from the roll (the crab estimate decays with it). Rows beyond n_states:
+        Gauss-Markov about its roll-driven mean, steady σ from the roll. Rows beyond n_states:
         Φ = I, white noise `q_extra` [unit²/s]."""
         st = self.mech.state
         rho, omega, a_c, c_bc = self._f
@@ -206,10 +206,10 @@ class InsEkf:
         phi[:em.N_STATES, :em.N_STATES] += f * dt
         q = np.concatenate([self.psd, np.asarray(q_extra, dtype=float)]) * dt
         if self.nhc is not None:
-            a = min(dt / self.s.nhc.crab_tau, 1.0)
+            a, roll = min(dt / self.s.nhc.crab_tau, 1.0), st.euler()[0]
             phi[CRAB, CRAB] = 1.0 - a
-            self.crab *= 1.0 - a
-            q[CRAB] = 2.0 * a * self.s.nhc.crab_var(st.euler()[0])
+            self.crab += a * (self.s.nhc.crab_mean(roll, self.heading_sigma()) - self.crab)
+            q[CRAB] = 2.0 * a * self.s.nhc.crab_var(roll)
         p = phi @ p @ phi.T
         p[np.diag_indices_from(p)] += q
         return p
