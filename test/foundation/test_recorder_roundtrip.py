@@ -97,7 +97,7 @@ def mcap_channel_qos(mcap_file):
     """{topic: offered_qos_profiles} from the channel records' metadata of an mcap file."""
     import yaml
 
-    from agnav_common.bagio import _flat_records, _string
+    from agnav_common.mcap_recording import _flat_records, _string
     out = {}
     with open(mcap_file, "rb") as f:
         f.read(8)

@@ -12,7 +12,8 @@ from rosbags.highlevel import AnyReader
 from rosbags.rosbag2 import StoragePlugin, Writer
 from sensor_msgs.msg import Imu
 
-from agnav_common.bagio import flush_recording, recover_bag, typestore, unfinished
+from agnav_common.bagio import typestore
+from agnav_common.mcap_recording import flush_recording, recover_bag, unfinished
 from agnav_drivers.bag_source import BagSource
 from test.foundation.test_bag_replay import imu_and_inclinometer_bag
 from test.foundation.test_runner import AGNAV, run_agnav

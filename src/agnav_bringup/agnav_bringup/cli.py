@@ -30,7 +30,7 @@ def recover(argv):
         print("usage: agnav recover DIR\nfinish the rosbag2 folder of a killed `agnav run --record DIR` (messages "
               "up to about a second before the kill are kept)")
         return 0 if argv and argv[0] in ("-h", "--help") else 2
-    from agnav_common.bagio import recover_bag
+    from agnav_common.mcap_recording import recover_bag
     try:
         count = recover_bag(argv[0])
     except (OSError, ValueError) as exc:

@@ -28,7 +28,7 @@ from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor  #
 from rclpy.experimental import EventsExecutor  # noqa: E402
 from rclpy.parameter import Parameter  # noqa: E402
 
-from agnav_common.bagio import unfinished  # noqa: E402
+from agnav_common.mcap_recording import unfinished  # noqa: E402
 from agnav_common.frames import quaternion_from_euler  # noqa: E402
 from agnav_common.local_bus import LocalBus  # noqa: E402
 from agnav_common.node_main import (PARENT_ENV, ParameterNameError, check_parameter_names,  # noqa: E402

@@ -17,7 +17,8 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPo
 from rosbags.rosbag2 import StoragePlugin, Writer
 
 from agnav_common import local_bus
-from agnav_common.bagio import close_recording, flush_recording, typestore, write_message
+from agnav_common.bagio import typestore
+from agnav_common.mcap_recording import close_recording, flush_recording, write_message
 from agnav_common.diagnostics import OK, Diagnostics
 from agnav_common.node_main import main_for
 from agnav_common.parameters import bounded, declare, leaves

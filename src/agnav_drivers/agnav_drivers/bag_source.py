@@ -8,7 +8,8 @@ from typing import NamedTuple
 from rosbags.convert import convert
 from rosbags.highlevel import AnyReader
 
-from agnav_common.bagio import typestore, unfinished
+from agnav_common.bagio import typestore
+from agnav_common.mcap_recording import unfinished
 
 
 class BagMessage(NamedTuple):

@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from agnav_common.bagio import unfinished
+from agnav_common.mcap_recording import unfinished
 from agnav_common.frames import euler_from_quaternion, wrap_angle
 from agnav_common.geodesy import LocalTangentPlane
 
