@@ -67,6 +67,7 @@ class NonHolonomic:
         j[:, list(em.V3)] = c_b_cbar.T @ T              # C -> B
         m = -c_b_cbar.T @ skew(T @ v_c)                 # tilt correction rotates C-bar by (TX, -TY, 0)
         j[:, em.TX], j[:, em.TY] = m[:, 0], -m[:, 1]
+        j[:, em.BG] = -skew(self.lever)                 # ω = gyro - bias
         h = np.stack([j[1] - crab * j[0], j[2]])
         h[0, CRAB] = -v_b[0]
         extra = (self.s.speed_sigma_gain * abs(v_b[0])) ** 2
