@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 from test_nav_sensor_module import LEVER, drive, errors
 
-from agnav_fusion.nav_ekf import IV
+from agnav_fusion.nav_ekf import IPHI, IV
 from agnav_fusion.nav_sensor_module import NavSensorModuleSettings
 
 FAULT = (40.0, 60.0)  # s: the fault window of every case
@@ -160,3 +160,22 @@ def test_stuck_imu_short_gaps_zero_velocity_covariance_and_overdue_fixes_are_see
     assert 50.0 < first["vel_zero_covariance"] < 50.2
     assert 60.0 < first["gnss_overdue"] < 61.0  # the 60 s fix missing: 1.5 periods after the 59 s one
     assert not any(s.dead_reckoning for t, s, *_ in out if 40.0 < t < 42.5)  # a stuck gyro is bridged, not believed
+
+
+def test_a_diverged_estimate_restarts_from_a_smooth_receiver_track():
+    """The estimate's heading goes wrong by 0.2 rad at 40 s, its variance unchanged (overconfident): the fixes it
+    then refuses continue the receiver's own track without a step, so after diverged_time the estimate restarts
+    from them (counted estimate_diverged) instead of dead-reckoning away for gnss_reset_time (30 s)."""
+    held = {}
+
+    def mutate(kind, args):
+        if kind == "imu" and abs(args[0] - 40.0) < 1e-6:
+            for sample in held["nsm"].history:
+                x, P = (a.copy() for a in sample.nav)
+                x[IPHI] += 0.2
+                sample.nav = (x, P)
+            held["nsm"].estimator.ekf.x, held["nsm"].estimator.ekf.P = (a.copy() for a in held["nsm"].history[-1].nav)
+        return args
+    nsm, out = drive(seconds=80.0, velocity=False, mutate=mutate, on_start=lambda m: held.update(nsm=m))
+    assert nsm.counters["estimate_diverged"] == 1 and nsm.counters["gnss_forced"] == 0
+    assert errors(out, 55.0)[0] < 0.1  # back on the fixes long before gnss_reset_time

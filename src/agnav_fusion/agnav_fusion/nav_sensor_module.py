@@ -51,6 +51,9 @@ class NavSensorModule:
         self._incl = None            # (t, roll, pitch) REP-103
         self._last_accepted_t = -math.inf
         self._rejected_since = None  # epoch of the first of the fixes the gate refuses in a row
+        self._smooth_refusals = 0    # refused fixes since the last accepted one, all on its smooth track (-1: broken)
+        self._track = None           # (t, xy, velocity) of the latest fix, accepted or not
+        self._smooth = False         # the latest fix continues that track without a step
         self.last_fix = None         # latest accepted corrected fix (t, xyz, cov)
         self._antenna_fixes = deque()  # (t, antenna ENU) of the last DIFFERENCE_S: tells fix-differenced velocities
         self._state = None
@@ -196,24 +199,42 @@ class NavSensorModule:
         speed = float(np.hypot(*v_ref)) if v_ref is not None else None
         fwd = np.array([math.sin(snap.heading), math.cos(snap.heading)])
         xy = corrected[:2] - (t - snap.t) * (speed or 0.0) * fwd   # align to the snapshot epoch
+        self._smooth = self._continues_track(t, antenna[:2], cov)
         if self.estimator.fix(k, t, xy, R, v_ref, vel, vel_var, speed, *((differenced,) if differenced else ())):
             self._last_accepted_t = t
             self.last_fix = (t, corrected, cov)
 
     def gate(self, t, d2):
-        """True to accept; False (counted) to refuse; None once fixes have been refused for gnss_reset_time: then
-        the position restarts from the fix (a receiver jump that persists, or a dead reckoning gone wrong)."""
+        """True to accept; False (counted) to refuse; None once fixes have been refused for gnss_reset_time (a
+        receiver jump that persists) or the fixes refused for diverged_time continue the accepted track without a step
+        (the estimate diverged, the receiver did not): then the position restarts from the fix."""
         if d2 <= self.settings.gate_chi2:
-            self._rejected_since = None
+            self._rejected_since, self._smooth_refusals = None, 0
             return True
         if self._rejected_since is None:
             self._rejected_since = t
-        if t - self._rejected_since >= self.settings.gnss_reset_time:
+        self._smooth_refusals = self._smooth_refusals + 1 if self._smooth and self._smooth_refusals >= 0 else -1
+        if self._smooth_refusals > 1 and t - self._rejected_since >= self.settings.diverged_time:
+            self.guard.count("estimate_diverged")
+        elif t - self._rejected_since >= self.settings.gnss_reset_time:
             self.guard.count("gnss_forced")
-            self._rejected_since = None
-            return None
-        self.guard.count("gnss_gated")
-        return False
+        else:
+            self.guard.count("gnss_gated")
+            return False
+        self._rejected_since, self._smooth_refusals = None, 0
+        return None
+
+    def _continues_track(self, t, xy, cov):
+        """True when the fix's velocity from the previous fix matches the previous one's (within track_max_accel and
+        3 sigma of the fixes' noise): no step in the receiver's track."""
+        prev = self._track
+        v = (xy - prev[1]) / (t - prev[0]) if prev is not None and t > prev[0] else None
+        self._track = (t, xy, v)
+        if v is None or prev[2] is None:
+            return False
+        dt = t - prev[0]
+        noise = 3.0 * math.sqrt(6.0 * float(np.trace(cov[:2, :2]))) / dt  # norm of a second difference of fixes
+        return float(np.hypot(*(v - prev[2]))) <= self.settings.track_max_accel * dt + noise
 
     # ---- helpers -----------------------------------------------------------------------------------------
     def _attitude_variances(self):

@@ -38,6 +38,9 @@ class NavSensorModuleSettings:
     velocity_sigma: float = 0.05              # m/s, 1-sigma per axis of GNSS velocity
     gate_chi2: float = 13.8                   # squared Mahalanobis gate, 2 dof 99.9 %
     gnss_reset_time: float = 30.0             # s of fixes refused by the gate, then the position restarts from them
+    diverged_time: float = 2.0                # s of refused fixes that all continue the last accepted one's track
+    #                                           smoothly: the estimate diverged, not the receiver (both restart)
+    track_max_accel: float = 1.0              # m/s^2, velocity change between fixes of a smooth receiver track
     heading_init_speed: float = 0.3           # m/s: slower receiver courses are no provisional heading; driving
     #                                           backwards this fast (beyond 3 sigma) restarts the heading (agnav)
     heading_init_distance: float = 3.0        # m, shortest chord of fixes that initialises the heading
