@@ -359,7 +359,8 @@ class InsEkf:
             self.p[em.H, em.H] += self._fix_var_h
         self._fix_var_h = var_h
         models = self.models if use_vel else self.models[:1]
-        accepted = [lin for lin in (m.linearize(snap, alpha, g, self.n_states) for m in models) if self.gated(lin)]
+        accepted = [lin for lin in (self.models[0].linearize(snap, alpha, g, self.n_states, hv),
+                                    *(m.linearize(snap, alpha, g, self.n_states) for m in models[1:])) if self.gated(lin)]
         position = any(lin.name == self.models[0].name for lin in accepted)
         if position:
             self._first_reject_t = None
