@@ -350,7 +350,6 @@ class InsEkf:
         self._propagate_covariance()
         snap = self._history.at(g.t, self._corr)
         alpha = self.mech.state.alpha
-        hv = self.p[em.GAMMA, em.GAMMA]
         use_vel = g.vel_enu is not None and not g.vel_from_fixes
         var_h = float(np.trace(g.pos_cov_enu[:2, :2])) / 2
         if var_h < self._fix_var_h / 4:     # better receiver class (float -> fixed): the state still carries the
@@ -359,7 +358,7 @@ class InsEkf:
             self.p[em.H, em.H] += self._fix_var_h
         self._fix_var_h = var_h
         models = self.models if use_vel else self.models[:1]
-        accepted = [lin for lin in (self.models[0].linearize(snap, alpha, g, self.n_states, hv),
+        accepted = [lin for lin in (self.models[0].linearize(snap, alpha, g, self.n_states, self.p[em.GAMMA, em.GAMMA]),
                                     *(m.linearize(snap, alpha, g, self.n_states) for m in models[1:])) if self.gated(lin)]
         position = any(lin.name == self.models[0].name for lin in accepted)
         if position:
