@@ -5,8 +5,12 @@ radar speed on /wheel/odometry: nav_msgs/Odometry twist.linear.x with its covari
 
 A thin wrapper: every message goes unchanged to agnav_fusion.pipeline.NavigationPipeline (front end + the backend
 its `estimator` parameter selects in agnav_fusion.backends: NavSensorModule for `agnav`/`thesis`, the GNSS/INS
-InsNavigation for `ins` (gyro + accelerometer; /inclinometer unused), each with its own settings as parameters),
-which the offline replay and the benchmarks drive the same way. The node owns topics, parameters, TF (mounts in:
+InsNavigation for `ins` (gyro + accelerometer; /inclinometer unused), its loose / tight / INS-only switching
+InsTightNavigation for `ins_tight`, each with its own settings as parameters), which the offline replay and the
+benchmarks drive the same way. `ins_tight` also subscribes to the raw GNSS topics of the drivers: gnss/status
+(RTK fixed or not), gnss/raw_observations and gnss/base/observations (agnav_msgs/GnssObservations), gnss/nav_data
+(agnav_msgs/GnssNavData: the broadcast ephemerides) and gnss/base/position (PointStamped ECEF, latched); its coupling
+mode and switches are on /diagnostics. The node owns topics, parameters, TF (mounts in:
 base_link->imu_link rotation and translation, ->gnss_link and ->inclinometer_link lever arms; poses out),
 diagnostics and time. Nothing is published on /odometry/filtered or TF until heading and position are initialised
 (diagnostic "initialising"); rejected inputs are counted on /diagnostics over a recent window; outputs never hold NaN.
@@ -22,8 +26,8 @@ from agnav_common.parameters import declare, descriptor, leaves
 from agnav_common.qos import LATCHED_QOS, PUBLISHER_QOS, subscribe_input
 from agnav_common.stamps import to_stamp
 from agnav_common.tf import TfBuffer, TransformBroadcaster
-from agnav_msgs.msg import Inclination
-from geometry_msgs.msg import TwistWithCovarianceStamped
+from agnav_msgs.msg import GnssNavData, GnssObservations, GnssStatus, Inclination
+from geometry_msgs.msg import PointStamped, TwistWithCovarianceStamped
 from nav_msgs.msg import Odometry
 from rclpy.node import Node
 from scipy.spatial.transform import Rotation
@@ -133,6 +137,8 @@ class NavSensorModuleNode(Node):
             subscribe_input(self, NavSatFix, "gnss/fix", self.pipeline.on_fix)
             subscribe_input(self, TwistWithCovarianceStamped, "gnss/vel", self.pipeline.on_velocity)
             subscribe_input(self, Odometry, "wheel/odometry", self.pipeline.on_wheel)
+            if self.pipeline.raw is not None:
+                self.subscribe_raw()
             self.pipeline.start()
         self.last_imu_arrival = None  # node time of the latest /imu/data_raw message
         self.published = 0
@@ -141,6 +147,15 @@ class NavSensorModuleNode(Node):
         self.diag.add("state", self.check_state)
         self.urgent = Urgent()
         self.backend.guard.on_problem = self.on_problem
+
+    def subscribe_raw(self):
+        """The raw GNSS inputs of a raw_gnss backend, with the QoS their drivers publish with."""
+        p = self.pipeline
+        subscribe_input(self, GnssStatus, "gnss/status", p.on_status)
+        subscribe_input(self, GnssObservations, "gnss/raw_observations", p.on_raw_observations)
+        subscribe_input(self, GnssObservations, "gnss/base/observations", p.on_base_observations)
+        subscribe_input(self, GnssNavData, "gnss/nav_data", p.on_nav_data)
+        self.create_subscription(PointStamped, "gnss/base/position", p.on_base_position, LATCHED_QOS)
 
     def on_problem(self, event):
         """A new input problem is on /diagnostics at once (rate-limited), not at the next tick."""

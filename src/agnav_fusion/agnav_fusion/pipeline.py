@@ -20,6 +20,10 @@ the accelerometer is the tilt source of a non-strapdown backend: its tilt then a
 `strapdown` backend (the INS integrates specific force at the IMU point, on the earth) needs it (an IMU message
 without one is counted `imu_no_accel`) and also gets the base_link -> imu_link translation, the map plane and the 3x3 ENU covariance of
 /gnss/vel (None: unknown) in place of its per-axis horizontal variance.
+A `raw_gnss` backend (InsTightNavigation: `ins_tight`) also gets the receiver's RTK status (/gnss/status) and raw
+epochs: rover and base agnav_msgs/GnssObservations, the base ECEF position (PointStamped) and the GnssNavData frames
+are gathered by gnss_raw.raw_input.RawInput; a rover epoch goes to the backend with the latest base epoch once the
+IMU has reached its stamp (at once when it arrives after that IMU sample).
 """
 import math
 from dataclasses import dataclass
@@ -31,6 +35,7 @@ VEL_MATCH_S = 0.1       # s, a /gnss/vel within this of a fix epoch is fused wit
 VEL_MATCH_PERIODS = 0.25  # ... and within this share of the fix interval (a 10 Hz fix never takes the last epoch's)
 FIX_HISTORY_S = 10.0    # s of fixes kept for the fix-difference velocity (slow 10 Hz runs still reach the baseline)
 STATUS_FIX = 0      # sensor_msgs/NavSatStatus: below this there is no position
+FIX_RTK_FIXED = 4   # agnav_msgs/GnssStatus.fix_type
 COVARIANCE_TYPE_UNKNOWN = 0
 
 
@@ -73,6 +78,12 @@ class NavigationPipeline:
         self.fix_interval = math.inf  # s between the last two fix epochs
         self.last_fix_t = None
         self.last_imu_t = 0.0
+        self.raw = None
+        if getattr(backend, "raw_gnss", False):   # cssrlib is imported only for such a backend
+            from agnav_fusion.gnss_raw.raw_input import RawInput
+            self.raw = RawInput()
+        self.pending_raw = []    # (stamp, rover ObsEpoch) waiting for the IMU to reach the stamp
+        self.imu_stamp = -math.inf
         self.configured_datum = len(s.datum) >= 3
         if self.configured_datum:
             self._set_plane(LocalTangentPlane(*(float(v) for v in s.datum[:3])))
@@ -118,6 +129,9 @@ class NavigationPipeline:
         state = self.backend.imu(t, r @ np.array([w.x, w.y, w.z]), accel)
         if state is not None:
             self.last_imu_t = max(self.last_imu_t, state.t)
+        if self.raw is not None:
+            self.imu_stamp = max(self.imu_stamp, t)
+            self._submit_raw()
         return state
 
     @staticmethod
@@ -168,6 +182,28 @@ class NavigationPipeline:
         self.pending_fixes.append((t, enu, cov, self.last_imu_t + self.settings.velocity_wait))
         if not (self.velocities and self.settings.velocity_wait > 0 and self._velocity_at(t) is None):
             self._submit_fixes(lambda fix: True)
+
+    # ---- raw GNSS (a raw_gnss backend) ----------------------------------------------------------------------
+    def on_status(self, msg):
+        self.backend.receiver_status(stamp_seconds(msg.header), msg.fix_type == FIX_RTK_FIXED)
+
+    def on_base_position(self, msg):
+        self.raw.base_position(msg.point.x, msg.point.y, msg.point.z)
+
+    def on_nav_data(self, msg):
+        self.raw.nav_data(msg)
+
+    def on_base_observations(self, msg):
+        self.raw.observations(msg, "base")
+
+    def on_raw_observations(self, msg):
+        self.pending_raw.append((stamp_seconds(msg.header), self.raw.observations(msg, "rover")))
+        self._submit_raw()
+
+    def _submit_raw(self):
+        while self.pending_raw and self.pending_raw[0][0] <= self.imu_stamp:
+            rover = self.pending_raw.pop(0)[1]
+            self.backend.raw_epoch(rover, self.raw.base, self.raw.nav, self.raw.base_pos)
 
     # ---- fix / velocity pairing -----------------------------------------------------------------------
     def _velocity_at(self, t):

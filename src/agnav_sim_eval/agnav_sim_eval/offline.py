@@ -11,6 +11,9 @@ from scipy.spatial.transform import Rotation
 
 INPUTS = {"/imu/data_raw": "on_imu", "/inclinometer": "on_inclinometer", "/gnss/fix": "on_fix",
           "/gnss/vel": "on_velocity", "/wheel/odometry": "on_wheel"}
+RAW_INPUTS = {"/gnss/status": "on_status", "/gnss/raw_observations": "on_raw_observations",   # a raw_gnss backend's
+              "/gnss/base/observations": "on_base_observations", "/gnss/nav_data": "on_nav_data",
+              "/gnss/base/position": "on_base_position"}
 IMU = "/imu/data_raw"
 NODE = "nav_sensor_module_node"
 FRAMES = ("base_link", "imu_link", "gnss_link", "inclinometer_link")
@@ -46,9 +49,14 @@ def set_mounts(pipeline, config, tf_messages, frames=FRAMES):
     pipeline.start()
 
 
+def inputs(pipeline):
+    """{topic: pipeline method} of the node's subscriptions for this pipeline's backend."""
+    return {**INPUTS, **RAW_INPUTS} if pipeline.raw is not None else INPUTS
+
+
 def feed(pipeline, topic, msg):
     """Hand one message to the pipeline as the node's subscription on `topic` does; the state of an IMU message."""
-    method = INPUTS.get(topic)
+    method = inputs(pipeline).get(topic)
     return getattr(pipeline, method)(msg) if method else None
 
 
@@ -59,7 +67,7 @@ def run_rows(pipeline, config, rows):
         if topic == "/tf_static" and not mounted:
             set_mounts(pipeline, config, [msg])
             mounted = True
-        elif topic in INPUTS:
+        elif topic in inputs(pipeline):
             state = feed(pipeline, topic, msg)
             if topic == IMU:
                 states.append(state)
@@ -69,14 +77,14 @@ def run_rows(pipeline, config, rows):
 def replay(config, bag, pipeline=None):
     """The states the navigation node publishes for `bag` (initialised ones), and the pipeline it ran."""
     pipeline = pipeline or pipeline_for(config)
-    remap = config.bag_remap
+    remap, topics = config.bag_remap, inputs(pipeline)
     with AnyReader([bag], default_typestore=typestore()) as reader:
         topic_of = {c.id: remap.get(c.topic, c.topic) for c in reader.connections}
-        wanted = [c for c in reader.connections if topic_of[c.id] in INPUTS or topic_of[c.id] == "/tf_static"]
+        wanted = [c for c in reader.connections if topic_of[c.id] in topics or topic_of[c.id] == "/tf_static"]
         tf_static = [reader.deserialize(raw, c.msgtype) for c, _, raw in
                      reader.messages(connections=[c for c in wanted if topic_of[c.id] == "/tf_static"])]
         set_mounts(pipeline, config, tf_static)
         rows = ((topic_of[c.id], reader.deserialize(raw, c.msgtype))
-                for c, _, raw in reader.messages(connections=[c for c in wanted if topic_of[c.id] in INPUTS]))
+                for c, _, raw in reader.messages(connections=[c for c in wanted if topic_of[c.id] in topics]))
         states = run_rows(pipeline, config, rows)
     return [s for s in states if s is not None and pipeline.ready(s)], pipeline

@@ -20,8 +20,8 @@ SYSTEMS = "GEJC"
 
 @dataclass
 class DDConfig:
-    elevation_mask_deg: float = 15.0
-    snr_mask_dbhz: float = 35.0
+    elevation_mask_deg: float = 15.0  # deg, satellites below are not used
+    snr_mask_dbhz: float = 35.0       # dB-Hz, weaker signals are not used
     sigma_code: float = 1.5     # m, undifferenced σ0 of the pseudorange: 0.3 m of epoch noise inflated by ~5 for
     #                             multipath correlated over ~10 s (the filter takes epochs as independent)
     sigma_phase: float = 0.003  # m, undifferenced σ0 of the carrier phase

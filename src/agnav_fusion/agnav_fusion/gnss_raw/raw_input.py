@@ -4,6 +4,9 @@ ROS), and GPS LNAV ephemerides from RXM-SFRBX subframe words into a cssrlib Nav.
 
 Loss of lock: a signal's `lock_time` that falls (or a receiver clock reset) sets the ObsEpoch `lli` flag, as
 RTKLIB does for RAWX; phase with an unresolved half cycle is left out (NaN).
+
+RawInput gathers a node's raw-GNSS topics (rover and base GnssObservations, the base position, GnssNavData frames)
+into what the tightly coupled filter needs: the latest rover and base ObsEpochs, the base ECEF position, the Nav.
 """
 import numpy as np
 from cssrlib.gnss import Nav, gpst2time, id2sat, rSigRnx
@@ -101,10 +104,10 @@ class SubframeNav:
         self._decoder = RawNav()
 
     def add(self, gnss_id, sv_id, sig_id, words, week, tow):
-        """Feed one frame received at GPS (week, tow); True when it completed a new ephemeris. GPS from L1 C/A
-        only (L2C/L5 CNAV frames share the LNAV preamble 0x8B), Galileo from E1B / E5bI I/NAV."""
+        """Feed one frame received at GPS (week, tow); True when it completed a new ephemeris. GPS and QZSS from
+        L1 C/A only (L2C/L5 CNAV frames share the LNAV preamble 0x8B), Galileo from E1B / E5bI I/NAV."""
         t, sat = gpst2time(int(week), float(tow)), id2sat(satellite_id(gnss_id, sv_id) or "R01")
-        if int(gnss_id) == 0 and int(sig_id) == 0 and len(words) >= 10:
+        if int(gnss_id) in (0, 5) and int(sig_id) == 0 and len(words) >= 10:
             data = b"".join((int(w) & 0xFFFFFFFF).to_bytes(4, "big") for w in words[:10])
             eph = self._decoder.decode_gps_lnav(int(week), t, sat, data)
         elif int(gnss_id) == 2 and int(sig_id) in (1, 5) and len(words) >= 8 and _gal_pages(words) is not None:
@@ -119,3 +122,45 @@ class SubframeNav:
         self.nav.eph.append(eph)
         return True
 
+
+
+class RawInput:
+    """Raw-GNSS messages (duck-typed agnav_msgs) -> ObsEpochs, base position and broadcast ephemerides. Navigation
+    frames wait for the first rover epoch (its GPS week and time decode them)."""
+
+    def __init__(self, signals=UBX_SIGNALS):
+        self.signals = signals
+        self.locks = {"rover": LockTracker(), "base": LockTracker()}
+        self.subframes = SubframeNav()
+        self.base = None          # latest base ObsEpoch
+        self.base_pos = None      # base antenna ECEF [m]
+        self._time = None         # (week, tow) of the latest rover epoch
+        self._frames = []         # navigation frames before it
+
+    @property
+    def nav(self):
+        return self.subframes.nav
+
+    def observations(self, msg, receiver="rover"):
+        """ObsEpoch of a GnssObservations message of `receiver` (rover | base); the base one is kept."""
+        epoch = observation_epoch(msg.week, msg.receiver_tow, msg.observations, self.signals, self.locks[receiver],
+                                  msg.clock_reset)
+        if receiver == "base":
+            self.base = epoch
+        else:
+            self._time = (epoch.week, epoch.tow)
+            for frame in self._frames:
+                self.subframes.add(*frame, *self._time)
+            self._frames = []
+        return epoch
+
+    def base_position(self, x, y, z):
+        self.base_pos = np.array([x, y, z], dtype=float)
+
+    def nav_data(self, msg):
+        """One GnssNavData frame; True when it completed a new ephemeris."""
+        frame = (msg.gnss_id, msg.sv_id, msg.sig_id, list(msg.words))
+        if self._time is None:
+            self._frames.append(frame)
+            return False
+        return self.subframes.add(*frame, *self._time)

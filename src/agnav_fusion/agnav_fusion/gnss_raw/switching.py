@@ -16,12 +16,19 @@ Output jumps: for `jump_window` s after each switch, every step's change of the 
 dead-reckoned motion (p₁ − p₀ − v₀Δt) is divided by the larger σ along it of the outputs before and after
 (√(uᵀ C u); a loose output's C includes the receiver's slowly drifting error, InsEkf.fix_drift_cov: a tight
 solution handed back meets fixes offset by it); `transitions` keeps the largest ratio per switch.
+
+Switching also offers the InsEkf interface nav_ins.InsNavigation drives (add_imu, add_gnss, solution, gnss_age,
+health, ...: the backend of estimator `ins_tight`, agnav_fusion.nav_ins_tight): the solution and its covariance are
+the active filter's. There the base position may come later (`set_base`; no tight mode before it), raw epochs wait
+for the loosely coupled filter's heading alignment, and the receiver's RTK status comes from its own messages
+(`receiver_status`, the latest one) instead of each fix's `fix_type`.
 """
 import math
 
 import numpy as np
 
 from agnav_fusion.gnss_raw.geometry import enu_basis
+from agnav_fusion.ins.ekf import ALIGNED
 from agnav_fusion.gnss_raw.tight import TightConfig, TightFilter, antenna_jacobians, antenna_state
 
 LOOSE, TIGHT, INS_ONLY = "loose", "tight", "ins_only"
@@ -45,14 +52,18 @@ class Switching:
     """Drives an InsEkf and, when tightly coupled, a TightFilter; feed add_imu / add_gnss / add_epoch in time
     order (the loosely coupled filter aligned before the first switch)."""
 
-    def __init__(self, ekf, base_pos, config=None, fix_timeout=1.5, jump_window=3.0):
-        self.ekf, self.base_pos, self.config = ekf, np.asarray(base_pos, float), config or TightConfig()
+    def __init__(self, ekf, base_pos=None, config=None, fix_timeout=1.5, jump_window=3.0):
+        self.ekf, self.config = ekf, config or TightConfig()
+        self.base_pos = None if base_pos is None else np.asarray(base_pos, float)
         self.lever = np.asarray(ekf.s.lever_gnss_frd, float)
         self.tight, self.mode = None, LOOSE
         self.fix_timeout, self.jump_window = fix_timeout, jump_window
         self._last_fixed_t = -math.inf
         self.transitions = []     # {t, from, to, jump_sigma, jump_m}
         self.last_solution = None  # TightSolution of the last tight epoch
+        self._receiver_fixed = None  # latest receiver_status (None: each fix's fix_type)
+        self._last_raw_t = -math.inf  # last tight epoch with an update
+        self._aligned = False       # the loose filter's heading has aligned once (raw epochs wait for it)
 
     @property
     def t(self):
@@ -71,23 +82,38 @@ class Switching:
         return pos, vel, cov
 
     def add_imu(self, t, gyro_frd, accel_frd):
+        """-> the active filter's rejection reason (None: used)."""
         f = self.tight if self.mode == TIGHT else self.ekf
-        self._watched(f.add_imu, t, gyro_frd, accel_frd)
+        return self._watched(f.add_imu, t, gyro_frd, accel_frd)
+
+    def set_base(self, base_pos):
+        """Base antenna ECEF [m] (a tight filter running keeps its own until the next switch)."""
+        self.base_pos = np.asarray(base_pos, float)
+
+    def receiver_status(self, fixed):
+        """The receiver's latest status: RTK fixed or not; it decides for the fixes from now on."""
+        self._receiver_fixed = bool(fixed)
 
     def add_gnss(self, g):
         """A receiver fix (GnssSample); fused only while loosely coupled."""
-        if g.fix_type == RTK_FIXED:
+        if (g.fix_type == RTK_FIXED) if self._receiver_fixed is None else self._receiver_fixed:
             self._last_fixed_t = g.t
             self._switch(LOOSE)
         if self.mode == LOOSE:
             self._watched(self.ekf.add_gnss, g)
 
     def add_epoch(self, rover, base, nav):
-        """One rover + base observation epoch at the current IMU time; returns the mode after it."""
+        """One rover + base observation epoch at the current IMU time; returns the mode after it (ignored before a
+        base position and the loose filter's first heading alignment)."""
+        self._aligned = self._aligned or self.ekf.alignment == ALIGNED
+        if self.base_pos is None or not self._aligned:
+            return self.mode
         fixed = self.t - self._last_fixed_t <= self.fix_timeout
         self._switch(select_mode(fixed, rover, base))
         if self.mode == TIGHT:
             self.last_solution = self._watched(self.tight.add_epoch, rover, base, nav)
+            if self.last_solution is not None:
+                self._last_raw_t = self.t
         return self.mode
 
     def _switch(self, mode):
@@ -117,3 +143,44 @@ class Switching:
             if ratio > rec["jump_sigma"]:
                 rec["jump_sigma"], rec["jump_m"] = ratio, size
         return out
+
+    # ---- the InsEkf interface of nav_ins.InsNavigation (estimator ins_tight) -----------------------------------
+    @property
+    def mech(self):
+        return self.tight.mech if self.mode == TIGHT else self.ekf.mech
+
+    @property
+    def alignment(self):
+        return self.ekf.alignment
+
+    @property
+    def stats(self):
+        return self.ekf.stats
+
+    @property
+    def imu_period(self):
+        return self.ekf.imu_period
+
+    @property
+    def last_gap(self):
+        return 0.0 if self.mode == TIGHT else self.ekf.last_gap
+
+    def gnss_age(self):
+        """s since the last fix fused (loose, INS only) or raw epoch used (tight)."""
+        return self.t - self._last_raw_t if self.mode == TIGHT else self.ekf.gnss_age()
+
+    def solution(self):
+        """NavSolution of the active filter: its INS state and covariance."""
+        return self.tight.solution() if self.mode == TIGHT else self.ekf.solution()
+
+    def health(self):
+        """The loose filter's health with the coupling mode, the switches and the last one."""
+        h = dict(self.ekf.health(), coupling=self.mode, coupling_switches=len(self.transitions))
+        if self.transitions:
+            tr = self.transitions[-1]
+            h["coupling_last_switch"] = (f"{tr['from']} -> {tr['to']} at {tr['t']:.2f} s, "
+                                         f"jump {tr['jump_sigma']:.2f} sigma ({tr['jump_m'] * 100:.1f} cm)")
+        if self.mode == TIGHT and self.last_solution is not None:
+            h.update(tight_dd=self.last_solution.n_dd, tight_fixed=self.last_solution.fixed,
+                     tight_slips=self.tight.stats["slips"])
+        return h

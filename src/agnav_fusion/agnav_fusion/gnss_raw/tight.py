@@ -47,17 +47,17 @@ STEP = {em.RX: 1e-7, em.RY: 1e-7, em.H: 0.1, em.VX: 0.01, em.VY: 0.01, em.VZ: 0.
 
 @dataclass
 class TightConfig:
-    dd: DDConfig = field(default_factory=lambda: DDConfig(sigma_code=0.5))
+    dd: DDConfig = field(default_factory=lambda: DDConfig(sigma_code=0.5))  # masks and DD noise
     sigma_amb_init: float = 10.0      # m, a fresh ambiguity's σ about Δ_Φ − h(r̂)
     sigma_amb_rate: float = 1e-4      # m/√s ambiguity random walk
     sigma_doppler: float = 0.05       # m/s undifferenced range rate (× elevation factor); ≤ 0: no Doppler
     sigma_drift_rate: float = 0.1     # m/s/√s random walk of c·δṫ_r
     sigma_drift_init: float = 1.0     # m/s about the first epoch's mean Doppler residual
     slip_doppler_cycles: float = 0.6  # |Δφ + mean(D)·Δt| beyond this flags a slip (4σ of 3 cm/s Doppler at 1 Hz)
-    fix: bool = True
-    hold: bool = True
+    fix: bool = True                  # integer ambiguity fixing (LAMBDA + ratio test)
+    hold: bool = True                 # an accepted fix is applied as a measurement of the ambiguities
     sigma_hold: float = 0.002         # m, the held ambiguities
-    ratio_threshold: float = fixing.RATIO_THRESHOLD
+    ratio_threshold: float = fixing.RATIO_THRESHOLD  # second-best / best squared norm to accept a fix
 
 
 @dataclass
@@ -204,6 +204,15 @@ class TightFilter:
         self.p = self.ins.feedback(x, p)
         self.x_drift += x[DRIFT]
         self.amb = self.amb + x[N_CORE:]
+
+    def solution(self):
+        """The INS NavSolution (InsEkf.solution) with this filter's covariance: the INS block of the augmented P."""
+        held, n = self.ins.p, self.ins.n_states
+        self.ins.p = self.p[:n, :n]
+        try:
+            return self.ins.solution()
+        finally:
+            self.ins.p = held
 
     def antenna(self):
         return antenna_state(self.mech, self.lever, self.ins.omega_b)
