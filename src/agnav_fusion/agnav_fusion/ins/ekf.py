@@ -22,13 +22,13 @@ from . import earth, error_model as em, feedback, quaternion
 from .constraints import CRAB, NonHolonomic
 from .history import SolutionHistory
 from .alignment import FixTrack, initial_state, initial_variances
-from .measurements import ENU_TO_NED, GnssPosition, GnssVelocity, Snapshot, c_axes, ned_to_c
-from .mechanization import T, Mechanization, c_cbar_ned
+from .measurements import GnssPosition, GnssVelocity
+from .mechanization import Mechanization, _floats
 from .settings import InsEkfSettings, NavSolution  # noqa: F401 (re-exported)
+from .solution import nav_solution
 
 UNINITIALIZED, ALIGNING, ALIGNED = "uninitialized", "aligning", "aligned"
 MAX_GAP_STEPS = 1000        # sub-steps bridging one IMU gap at most
-V3_BLOCK = np.ix_(list(em.V3), list(em.V3))
 
 
 class InsEkf:
@@ -96,8 +96,8 @@ class InsEkf:
         Missing samples (an interval over 1.5 nominal periods) are bridged, never skipped: the rates and specific
         force are interpolated across the gap in nominal sub-steps (GNSS epochs inside it are applied on the way)
         and the covariance grows by an unknown acceleration and rate over the gap length (`gap_*_sigma`)."""
-        gyro, accel = np.asarray(gyro_frd, dtype=float), np.asarray(accel_frd, dtype=float)
-        if not (math.isfinite(t) and np.all(np.isfinite(gyro)) and np.all(np.isfinite(accel))):
+        gyro, accel = _floats(gyro_frd), _floats(accel_frd)
+        if not math.isfinite(t + sum(gyro) + sum(accel)) and not all(map(math.isfinite, [t, *gyro, *accel])):
             return self._reject("imu_nan")
         if self.t is not None and t <= self.t:
             return self._reject("imu_stamp")
@@ -119,13 +119,16 @@ class InsEkf:
             gap_psd = np.zeros(self.n_states)
             gap_psd[list(em.V3)] = self.s.gap_accel_sigma ** 2 * self.last_gap
             gap_psd[[em.TX, em.TY, em.GAMMA]] = self.s.gap_rate_sigma ** 2 * self.last_gap
-        g0, a0 = self._last_imu or (gyro, accel)    # (none yet after adopt)
-        for k in range(1, n + 1):
+        if n == 1:
+            self.t = t
+            self._propagate(gyro, accel, dt)
+            self._process_pending()
+        g0, a0 = (np.asarray(v) for v in (self._last_imu or (gyro, accel)))   # (none yet after adopt)
+        for k in range(1, n + 1 if n > 1 else 1):
             w = k / n
             self.t = t if k == n else t0 + w * dt
-            if n > 1:
-                self._gap_var = (0.0 if self._gap_var is None else self._gap_var) + gap_psd * dt / n
-            self._propagate(g0 + w * (gyro - g0), a0 + w * (accel - a0), dt / n)
+            self._gap_var = (0.0 if self._gap_var is None else self._gap_var) + gap_psd * dt / n
+            self._propagate(g0 + w * (np.asarray(gyro) - g0), a0 + w * (np.asarray(accel) - a0), dt / n)
             self._process_pending()
         self._last_imu = (gyro, accel)
         return None
@@ -156,23 +159,7 @@ class InsEkf:
         """Current IMU-point NavSolution, or None before initialisation."""
         if self.mech is None:
             return None
-        st = self.mech.state
-        lat, alpha = st.lat, st.alpha
-        c_bc, cn = st.c_b_cbar(), c_cbar_ned(alpha)
-        roll, pitch, yaw_c = quaternion.euler(c_bc)
-        a = c_axes(alpha) * (earth.mean_radius(lat) + st.h)
-        pos = np.zeros((3, 3))
-        pos[:2, :2] = a @ self.p[:2, :2] @ a.T
-        pos[2, 2] = self.p[em.H, em.H]
-        pos += self.fix_drift_cov
-        m = ENU_TO_NED.T @ ned_to_c(alpha).T       # C -> ENU
-        tx, ty, c = self.p[em.TX, em.TX], self.p[em.TY, em.TY], self.p[em.TX, em.TY]
-        tilt = 0.5 * (tx + ty) + math.hypot(0.5 * (tx - ty), c)   # largest: roll and pitch are rotated C-axis tilts
-        return NavSolution(self.t, lat, st.lon, st.h, cn @ (T @ st.v), roll, pitch,
-                           math.remainder(yaw_c - alpha, 2.0 * math.pi), self.omega_b.copy(), cn @ c_bc, pos,
-                           m @ self.p[V3_BLOCK] @ m.T,
-                           np.array([tilt, tilt, self.p[em.GAMMA, em.GAMMA]]), np.diag(self.p)[em.BG].copy(),
-                           self.crab, self.p[CRAB, CRAB] if self.nhc is not None else math.inf)
+        return nav_solution(self)
 
     def health(self):
         """Filter health for diagnostics: alignment, NIS means, counts, GNSS age, 1-sigma errors."""
@@ -204,14 +191,14 @@ class InsEkf:
         f = em.dynamics(self.s.error, st.v, a_c, rho, omega, em.body_to_c(c_bc), st.lat, st.h, st.alpha)
         phi = np.eye(len(p))
         phi[:em.N_STATES, :em.N_STATES] += f * dt
-        q = np.concatenate([self.psd, np.asarray(q_extra, dtype=float)]) * dt
+        q = (np.concatenate([self.psd, np.asarray(q_extra, dtype=float)]) if len(q_extra) else self.psd) * dt
         if self.nhc is not None:
-            a, roll = min(dt / self.s.nhc.crab_tau, 1.0), st.euler()[0]
+            a, roll = min(dt / self.s.nhc.crab_tau, 1.0), quaternion.roll(st.q.tolist())
             phi[CRAB, CRAB] = 1.0 - a
             self.crab += a * (self.s.nhc.crab_mean(roll, self.heading_sigma()) - self.crab)
             q[CRAB] = 2.0 * a * self.s.nhc.crab_var(roll)
         p = phi @ p @ phi.T
-        p[np.diag_indices_from(p)] += q
+        p.flat[::len(p) + 1] += q
         return p
 
     def feedback(self, x, p):
@@ -252,7 +239,7 @@ class InsEkf:
         self.p[:k, :k] = np.asarray(p)[:k, :k]
         if k < n:
             self.p[CRAB, CRAB] = self.s.nhc.crab_var(mech.state.euler()[0])
-        self.omega_b = np.zeros(3) if omega_b is None else np.asarray(omega_b, dtype=float).copy()
+        self.omega_b = np.zeros(3) if omega_b is None else np.array(omega_b, dtype=float)
         self._f, self._cov_dt, self._gap_var, self._pending, self._corr = None, 0.0, None, [], np.zeros(6)
         self._history.clear()
         self._snapshot()
@@ -309,20 +296,19 @@ class InsEkf:
 
     def _mechanize(self, gyro, accel, dt):
         self._f = self.mech.step(gyro, accel, dt)
-        self.omega_b = gyro - self.mech.gyro_bias
+        self.omega_b = np.subtract(gyro, self.mech.gyro_bias)     # a new array each time (the history keeps it)
 
     def _propagate_covariance(self):
         if self._cov_dt > 0.0:      # (+ the unknown motion of a bridged IMU gap)
             self.p = self.propagate_covariance(self.p, self._cov_dt)
-            self.p[np.diag_indices_from(self.p)] += 0.0 if self._gap_var is None else self._gap_var
+            if self._gap_var is not None:
+                self.p.flat[::len(self.p) + 1] += self._gap_var
             self._gap_var, self._cov_dt = None, 0.0
 
     def _snapshot(self):
         st = self.mech.state
-        cn = c_cbar_ned(st.alpha)
         c_bc = self._f[3] if self._f is not None else st.c_b_cbar()
-        self._history.append(Snapshot(self.t, st.lat, st.lon, st.h, cn @ (T @ st.v), cn @ c_bc, self.omega_b.copy()),
-                             self._corr)
+        self._history.append((self.t, st.lat, st.lon, st.h, st.alpha, st.v, c_bc, self.omega_b), self._corr)
 
     def _process_pending(self):
         keep = []
@@ -391,7 +377,7 @@ class InsEkf:
         st = self.mech.state
         before = np.array([st.lat, st.lon, st.h, *st.v_ned()])
         p = self.feedback(x, p)
-        self._corr += np.array([st.lat, st.lon, st.h, *st.v_ned()]) - before
+        self._corr = self._corr + (np.array([st.lat, st.lon, st.h, *st.v_ned()]) - before)   # new (history)
         if p[em.GAMMA, em.GAMMA] > 1.0:          # no worse than an unknown heading
             scale = 1.0 / math.sqrt(p[em.GAMMA, em.GAMMA])
             p[em.GAMMA, :] *= scale

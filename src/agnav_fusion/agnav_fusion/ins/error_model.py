@@ -48,70 +48,77 @@ class ErrorModelSettings:
 
 def dynamics(settings, v, f_c, rho, omega, c_b_c, lat, h, alpha):
     """F = d(x')/dx at x = 0 for computed velocity v, specific force f_c (both in C), transport rate
-    rho, earth rate omega, body->C DCM c_b_c (5-4-10..40, 5-4-41..46)."""
+    rho, earth rate omega, body->C DCM c_b_c (5-4-10..40, 5-4-41..46). Sequences of Python floats or arrays;
+    the nonzero entries are written in scalars (the term-by-term form is `dynamics_terms` in the tests)."""
+    v0, v1, v2 = (float(x) for x in v)
+    f0, f1, f2 = (float(x) for x in f_c)
+    r0, r1, r2 = (float(x) for x in rho)
+    o0, o1, o2 = (float(x) for x in omega)
+    (c0, c1, c2), (c3, c4, c5), (c6, c7, c8) = (tuple(float(x) for x in row) for row in c_b_c)
     r = earth.mean_radius(lat) + h
-    big_omega = earth.OMEGA
+    om = earth.OMEGA
     sl, cl, sa, ca = math.sin(lat), math.cos(lat), math.sin(alpha), math.cos(alpha)
-    f = np.zeros((N_STATES, N_STATES))
+    ir, vr1, vr0 = 1.0 / r, v1 / r ** 2, v0 / r ** 2
     # error rows of transport rate and earth rate (5-4-10, 5-4-11, 5-4-26); Δλ = sa δr_x + ca δr_y
-    d_rho = np.zeros((3, N_STATES))
-    d_rho[0, VY], d_rho[0, H] = -1.0 / r, v[1] / r ** 2
-    d_rho[1, VX], d_rho[1, H] = 1.0 / r, -v[0] / r ** 2
-    d_om = np.zeros((3, N_STATES))
-    d_om[0, [GAMMA, BETA, RX, RY]] = big_omega * np.array([-cl * sa, cl * ca, -sl * ca * sa, -sl * ca * ca])
-    d_om[1, [GAMMA, BETA, RX, RY]] = big_omega * np.array([-cl * ca, -cl * sa, sl * sa * sa, sl * sa * ca])
-    d_om[2, [RX, RY]] = big_omega * cl * np.array([sa, ca])
-    # position (5-4-12..14)
-    f[RX] = d_rho[0]
-    f[RX, GAMMA] -= rho[1]
-    f[RX, BETA] -= rho[0]
-    f[RY] = d_rho[1]
-    f[RY, GAMMA] += rho[0]
-    f[RY, BETA] -= rho[1]
-    f[H, VZ] = 1.0
-    # velocity (5-4-15..24): f x δθ + C b - (δρ + 2δΩ) x v - (ρ + 2Ω) x δv + (2g/R') δh
-    w = d_rho + 2.0 * d_om
-    f[VX] += v[1] * w[2] - v[2] * w[1]
-    f[VY] += v[2] * w[0] - v[0] * w[2]
-    f[VZ] += v[0] * w[1] - v[1] * w[0]
-    f[VX, TY] += -f_c[2]
-    f[VY, TX] += f_c[2]
-    f[VZ, TX] += -f_c[1]
-    f[VZ, TY] += f_c[0]
-    p = rho + 2.0 * omega
-    f[VX, VY] += p[2]
-    f[VX, VZ] += -p[1]
-    f[VY, VZ] += p[0]
-    f[VY, VX] += -p[2]
-    f[VZ, VX] += p[1]
-    f[VZ, VY] += -p[0]
-    for i, row in enumerate(V3):
-        f[row, BA] = c_b_c[i]
-    # [IMPL] the z gyro bias turns the body yaw, hence the "true C" frame in which v^C is counted:
-    # the velocity error absorbs that rotation, so a straight constant-velocity run carries no heading
-    # information (without this row the model claims gyro-z drift is visible in the GNSS velocity)
-    f[VX, BG] += v[1] * c_b_c[2]
-    f[VY, BG] -= v[0] * c_b_c[2]
-    f[VZ, H] += 2.0 * earth.gravity(lat, h) / r
-    # attitude (5-4-25..29): δρ + δΩ - (ρ + Ω) x δθ - C d, δθ_z = 0
-    wr = rho + omega
-    f[TX] = d_rho[0] + d_om[0]
-    f[TX, TY] += wr[2]
-    f[TX, BG] = -c_b_c[0]
-    f[TY] = d_rho[1] + d_om[1]
-    f[TY, TX] += -wr[2]
-    f[TY, BG] = -c_b_c[1]
-    # azimuth (5-4-30..39): δα' = -δΩ_z + (ρ_x+Ω_x)δθ_y - (ρ_y+Ω_y)δθ_x + (C d)_z; γ' = δα', β' = 0 at x = 0
-    f[GAMMA] = -d_om[2]
-    f[GAMMA, TY] += wr[0]
-    f[GAMMA, TX] += -wr[1]
-    f[GAMMA, BG] = c_b_c[2]
-    # sensor errors, first-order Gauss-Markov (5-4-41..46)
-    f[BA, BA] = -np.eye(3) / settings.accel_bias_tau
-    f[BG, BG] = -np.eye(3) / settings.gyro_bias_tau
-    return f
+    og0, ob0, ox0, oy0 = om * (-cl * sa), om * (cl * ca), om * (-sl * ca * sa), om * (-sl * ca * ca)
+    og1, ob1, ox1, oy1 = om * (-cl * ca), om * (-cl * sa), om * (sl * sa * sa), om * (sl * sa * ca)
+    ox2, oy2 = om * cl * sa, om * cl * ca
+    p0, p1, p2 = r0 + 2.0 * o0, r1 + 2.0 * o1, r2 + 2.0 * o2        # rho + 2 omega
+    wr0, wr1, wr2 = r0 + o0, r1 + o1, r2 + o2                       # rho + omega
+    # rows of w = δρ + 2δΩ (w2: RX, RY only) for the velocity's -(δρ + 2δΩ) x v
+    wg0, wb0, wx0, wy0 = 2.0 * og0, 2.0 * ob0, 2.0 * ox0, 2.0 * oy0
+    wg1, wb1, wx1, wy1 = 2.0 * og1, 2.0 * ob1, 2.0 * ox1, 2.0 * oy1
+    wx2, wy2 = 2.0 * ox2, 2.0 * oy2
+    g2 = 2.0 * earth.gravity(lat, h) / r
+    ta, tg = -1.0 / settings.accel_bias_tau, -1.0 / settings.gyro_bias_tau
+    vals = (
+        # position (5-4-12..14)
+        -ir, vr1, -r1, -r0,                                                   # RX: VY, H, GAMMA, BETA
+        ir, -vr0, r0, -r1,                                                    # RY: VX, H, GAMMA, BETA
+        1.0,                                                                  # H: VZ
+        # velocity (5-4-15..24, [IMPL] z gyro bias rows: see the term form)
+        -(v2 * ir), p2, -p1, -(v2 * -vr0), -(v2 * wg1), -(v2 * wb1), v1 * wx2 - v2 * wx1, v1 * wy2 - v2 * wy1,
+        -f2, c0, c1, c2, v1 * c6, v1 * c7, v1 * c8,
+        -p2, v2 * -ir, p0, v2 * vr1, v2 * wg0, v2 * wb0, v2 * wx0 - v0 * wx2, v2 * wy0 - v0 * wy2,
+        f2, c3, c4, c5, -(v0 * c6), -(v0 * c7), -(v0 * c8),
+        v0 * ir + p1, -(v1 * -ir) + -p0, v0 * -vr0 - v1 * vr1 + g2, v0 * wg1 - v1 * wg0, v0 * wb1 - v1 * wb0,
+        v0 * wx1 - v1 * wx0, v0 * wy1 - v1 * wy0, -f1, f0, c6, c7, c8,
+        # attitude (5-4-25..29): δρ + δΩ - (ρ + Ω) x δθ - C d, δθ_z = 0
+        -ir, vr1, og0, ob0, ox0, oy0, wr2, -c0, -c1, -c2,
+        ir, -vr0, og1, ob1, ox1, oy1, -wr2, -c3, -c4, -c5,
+        # azimuth (5-4-30..39): δα' = -δΩ_z + (ρ_x+Ω_x)δθ_y - (ρ_y+Ω_y)δθ_x + (C d)_z
+        -ox2, -oy2, wr0, -wr1, c6, c7, c8,
+        # sensor errors, first-order Gauss-Markov (5-4-41..46)
+        ta, ta, ta, tg, tg, tg)
+    f = np.zeros(N_STATES * N_STATES)
+    f[_F_INDEX] = vals
+    return f.reshape(N_STATES, N_STATES)
+
+
+def _flat(entries):
+    return np.array([i * N_STATES + j for i, j in entries])
+
+
+BA0, BG0 = BA.start, BG.start
+_F_INDEX = _flat(
+    [(RX, VY), (RX, H), (RX, GAMMA), (RX, BETA),
+     (RY, VX), (RY, H), (RY, GAMMA), (RY, BETA),
+     (H, VZ)]
+    + [(VX, VX), (VX, VY), (VX, VZ), (VX, H), (VX, GAMMA), (VX, BETA), (VX, RX), (VX, RY), (VX, TY)]
+    + [(VX, BA0 + k) for k in range(3)] + [(VX, BG0 + k) for k in range(3)]
+    + [(VY, VX), (VY, VY), (VY, VZ), (VY, H), (VY, GAMMA), (VY, BETA), (VY, RX), (VY, RY), (VY, TX)]
+    + [(VY, BA0 + k) for k in range(3)] + [(VY, BG0 + k) for k in range(3)]
+    + [(VZ, VX), (VZ, VY), (VZ, H), (VZ, GAMMA), (VZ, BETA), (VZ, RX), (VZ, RY), (VZ, TX), (VZ, TY)]
+    + [(VZ, BA0 + k) for k in range(3)]
+    + [(TX, VY), (TX, H), (TX, GAMMA), (TX, BETA), (TX, RX), (TX, RY), (TX, TY)] + [(TX, BG0 + k) for k in range(3)]
+    + [(TY, VX), (TY, H), (TY, GAMMA), (TY, BETA), (TY, RX), (TY, RY), (TY, TX)] + [(TY, BG0 + k) for k in range(3)]
+    + [(GAMMA, RX), (GAMMA, RY), (GAMMA, TY), (GAMMA, TX)] + [(GAMMA, BG0 + k) for k in range(3)]
+    + [(BA0 + k, BA0 + k) for k in range(3)] + [(BG0 + k, BG0 + k) for k in range(3)])
 
 
 def body_to_c(c_b_cbar):
-    """C_B^C = T C_B^Cbar."""
-    return T @ c_b_cbar
+    """C_B^C = T C_B^Cbar (rows of an array or of row tuples: the same rows, the last two negated)."""
+    if isinstance(c_b_cbar, np.ndarray):
+        return T @ c_b_cbar
+    a, b, c = c_b_cbar
+    return a, tuple(-x for x in b), tuple(-x for x in c)

@@ -4,15 +4,15 @@ The INS body frame B is base_link with FRD axes; the IMU point (origin of the me
 imu_link origin. Mount translations and rotations come from TF (base_link -> imu_link / gnss_link).
 """
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from agnav_common.frames import wrap_angle
 
-from .lever_arm import imu_to_point_position, lever_velocity
+from .earth import radii
 from .measurements import ENU_TO_NED
-from .mechanization import skew
+from .solution import congruence3
 
 FLU_TO_FRD = np.diag([1.0, -1.0, -1.0])
 FRD = FLU_TO_FRD.diagonal().copy()   # FLU <-> FRD sign flips: x * FRD == x @ FLU_TO_FRD (per-sample paths)
@@ -47,15 +47,20 @@ class BaseLinkState:
     velocity: np.ndarray      # base_link FLU [m/s]
     rates: np.ndarray         # bias-corrected body rates, FLU [rad/s]
     twist_cov: np.ndarray     # vx, vy, vz, wx, wy, wz
+    checks: tuple = field(default=None, repr=False, compare=False)   # (finite, positive_definite) when known
 
     def finite(self):
         """No NaN or inf anywhere (one sum: NaN and inf propagate)."""
+        if self.checks is not None:
+            return self.checks[0]
         return math.isfinite(float(self.position.sum() + self.rpy.sum() + self.pose_cov.sum() + self.velocity.sum()
                                    + self.rates.sum() + self.twist_cov.sum()))
 
     def positive_definite(self):
         """Both covariances positive-definite (symmetric by construction; the attitude and rate blocks are diagonal
         and uncorrelated with the position and velocity blocks: Sylvester's criterion on those)."""
+        if self.checks is not None:
+            return self.checks[1]
         return all(positive_definite3(c[:3, :3].tolist()) and c[3:, 3:].diagonal().min() > 0
                    for c in (self.pose_cov, self.twist_cov))
 
@@ -93,23 +98,48 @@ class FastPlane:
 
 def base_link_state(sol, mounts, plane, rate_var=(0.0, 0.0, 0.0)):
     """BaseLinkState from an IMU-point NavSolution: moved to base_link by the mount (5-5-3, ω x l), attitude and
-    covariances rotated to REP-103. plane: agnav_common LocalTangentPlane; rate_var: gyro white-noise variance."""
-    c, lever = sol.c_b_ned, -mounts.lever_imu_frd
-    lat, lon, h = imu_to_point_position(sol.lat, sol.lon, sol.h, lever, c)
-    position = np.array(plane.to_enu(math.degrees(lat), math.degrees(lon), h), dtype=float)
-    r_body_enu = NED_TO_ENU @ (c * FRD)                  # base_link FLU -> ENU
-    v_ned = sol.v_ned + lever_velocity(lever, c, sol.omega_b)
-    # the mount lever turned by an attitude error moves base_link: δp = φ x (C l), φ ~ N(0, diag(att_var))
-    arm = NED_TO_ENU @ skew(c @ lever)
-    pose_cov = np.zeros((6, 6))
-    pose_cov[:3, :3] = sol.pos_cov_enu + (arm * sol.att_var) @ arm.T
-    pose_cov[_DIAG3, _DIAG3] = sol.att_var
-    twist_cov = np.zeros((6, 6))
-    twist_cov[:3, :3] = r_body_enu.T @ sol.vel_cov_enu @ r_body_enu
-    twist_cov[_DIAG3, _DIAG3] = sol.gyro_bias_var + np.asarray(rate_var, dtype=float)
-    return BaseLinkState(sol.t, position, np.array([sol.roll, -sol.pitch, wrap_angle(math.pi / 2 - sol.heading)]),
-                         symmetric(pose_cov), r_body_enu.T @ (NED_TO_ENU @ v_ned), FRD * sol.omega_b,
-                         symmetric(twist_cov))
+    covariances rotated to REP-103. plane: agnav_common LocalTangentPlane; rate_var: gyro white-noise variance.
+    Once per IMU sample: Python floats throughout (the matrix form is in test/ins/test_scalar_paths.py)."""
+    c = sol.c_b_ned.tolist()
+    (c0, c1, c2), (c3, c4, c5), (c6, c7, c8) = c
+    l0, l1, l2 = mounts.lever_imu_frd.tolist()                      # base_link -> IMU; the lever is its negative
+    d0, d1, d2 = c0 * l0 + c1 * l1 + c2 * l2, c3 * l0 + c4 * l1 + c5 * l2, c6 * l0 + c7 * l1 + c8 * l2
+    rm, rn = radii(sol.lat)
+    lat, h = sol.lat - d0 / (rm + sol.h), sol.h + d2
+    position = plane.to_enu(math.degrees(lat), math.degrees(sol.lon - d1 / ((rn + sol.h) * math.cos(sol.lat))), h)
+    # base_link FLU -> ENU: NED_TO_ENU C diag(FRD)
+    rbe = ((c3, -c4, -c5), (c0, -c1, -c2), (-c6, c7, c8))
+    w0, w1, w2 = sol.omega_b.tolist()
+    k0, k1, k2 = -(w1 * l2 - w2 * l1), -(w2 * l0 - w0 * l2), -(w0 * l1 - w1 * l0)     # ω x lever
+    n0, n1, n2 = sol.v_ned.tolist()
+    n0, n1, n2 = n0 + (c0 * k0 + c1 * k1 + c2 * k2), n1 + (c3 * k0 + c4 * k1 + c5 * k2), n2 + (c6 * k0 + c7 * k1 + c8 * k2)
+    velocity = (c0 * n0 + c3 * n1 + c6 * n2, -(c1 * n0 + c4 * n1 + c7 * n2), -(c2 * n0 + c5 * n1 + c8 * n2))
+    # the mount lever turned by an attitude error moves base_link: δp = φ x (C l), φ ~ N(0, diag(att_var));
+    # arm = NED_TO_ENU [C l x] with C l = -d
+    u0, u1, u2 = -d0, -d1, -d2
+    ta, tb, tc = sol.att_var.tolist()
+    (e00, e01, e02), (e10, e11, e12), (e20, e21, e22) = sol.pos_cov_enu.tolist()
+    s00, s01, s02 = u2 * ta * u2 + u0 * tc * u0, -(u0 * tc * u1), u2 * ta * u1
+    s11, s12, s22 = u2 * tb * u2 + u1 * tc * u1, u2 * tb * u0, u1 * ta * u1 + u0 * tb * u0
+    p00, p11, p22 = e00 + s00, e11 + s11, e22 + s22
+    p01, p02, p12 = ((e01 + s01) + (e10 + s01)) / 2, ((e02 + s02) + (e20 + s02)) / 2, ((e12 + s12) + (e21 + s12)) / 2
+    (v00, v01, v02), (v10, v11, v12), (v20, v21, v22) = congruence3(tuple(zip(*rbe)), sol.vel_cov_enu.tolist())
+    v01, v02, v12 = (v01 + v10) / 2, (v02 + v20) / 2, (v12 + v21) / 2          # exactly symmetric
+    g0, g1, g2 = (b + r for b, r in zip(sol.gyro_bias_var.tolist(), rate_var))
+    rpy = (sol.roll, -sol.pitch, wrap_angle(math.pi / 2 - sol.heading))
+    rates = (w0, -w1, -w2)
+    total = (sum(position) + sum(rpy) + sum(velocity) + sum(rates) + p00 + p11 + p22 + p01 + p02 + p12 + ta + tb + tc
+             + v00 + v11 + v22 + v01 + v02 + v12 + g0 + g1 + g2)
+    pd = (positive_definite3(((p00, p01, p02), (p01, p11, p12), (p02, p12, p22))) and min(ta, tb, tc) > 0
+          and positive_definite3(((v00, v01, v02), (v01, v11, v12), (v02, v12, v22))) and min(g0, g1, g2) > 0)
+    pose_cov = np.array((p00, p01, p02, 0.0, 0.0, 0.0, p01, p11, p12, 0.0, 0.0, 0.0, p02, p12, p22, 0.0, 0.0, 0.0,
+                         0.0, 0.0, 0.0, ta, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, tb, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, tc)
+                        ).reshape(6, 6)
+    twist_cov = np.array((v00, v01, v02, 0.0, 0.0, 0.0, v01, v11, v12, 0.0, 0.0, 0.0, v02, v12, v22, 0.0, 0.0, 0.0,
+                          0.0, 0.0, 0.0, g0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, g1, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, g2)
+                         ).reshape(6, 6)
+    return BaseLinkState(sol.t, np.array(position, dtype=float), np.array(rpy), pose_cov, np.array(velocity),
+                         np.array(rates), twist_cov, (math.isfinite(total), pd))
 
 
 def symmetric(cov):

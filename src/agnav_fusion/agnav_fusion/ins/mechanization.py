@@ -24,14 +24,23 @@ def skew(v):
 
 def rotation(phi):
     """exp([phi x]) (Rodrigues)."""
-    x, y, z = float(phi[0]), float(phi[1]), float(phi[2])
+    return np.array(rotation_rows(float(phi[0]), float(phi[1]), float(phi[2])))
+
+
+def rotation_rows(x, y, z):
+    """exp([phi x]) of phi = (x, y, z) as three row tuples of Python floats."""
     a2 = x * x + y * y + z * z
     a = math.sqrt(a2)
     sa, ca = (1.0, 0.5) if a < 1e-9 else (math.sin(a) / a, (1.0 - math.cos(a)) / a2)
     d = 1.0 - ca * a2                     # [phi x]^2 = phi phi^T - a^2 I
-    return np.array([[d + ca * x * x, ca * x * y - sa * z, ca * x * z + sa * y],
-                     [ca * x * y + sa * z, d + ca * y * y, ca * y * z - sa * x],
-                     [ca * x * z - sa * y, ca * y * z + sa * x, d + ca * z * z]])
+    return ((d + ca * x * x, ca * x * y - sa * z, ca * x * z + sa * y),
+            (ca * x * y + sa * z, d + ca * y * y, ca * y * z - sa * x),
+            (ca * x * z - sa * y, ca * y * z + sa * x, d + ca * z * z))
+
+
+def _floats(x):
+    """A 3-vector as a list of Python floats."""
+    return x.tolist() if isinstance(x, np.ndarray) else [float(v) for v in x]
 
 
 def orthonormalize(c):
@@ -122,26 +131,49 @@ class Mechanization:
 
     def step(self, gyro_frd, accel_frd, dt):
         """Advance by dt with rate [rad/s] and specific force [m/s^2] in B (FRD); returns the transport
-        rate, earth rate, specific force in C and C_B^Cbar used by the error model."""
+        rate, earth rate, specific force in C and C_B^Cbar used by the error model (tuples of floats; C_B^Cbar as
+        rows). Python floats throughout: 3-vectors and 3x3 products cost less in scalars than in numpy."""
         s = self.state
-        lat, alpha = s.lat, s.alpha
-        rho = earth.transport_rate(s.v, lat, s.h, alpha)
-        omega = earth.earth_rate_c(lat, alpha)
-        c_bc = s.c_b_cbar()
+        (c0, c1, c2), (c3, c4, c5), (c6, c7, c8) = s.c_ec.tolist()
+        h = s.h
+        v0, v1, v2 = s.v.tolist()
+        gx, gy, gz = _floats(gyro_frd)
+        ax, ay, az = _floats(accel_frd)
+        bgx, bgy, bgz = self.gyro_bias.tolist()
+        bax, bay, baz = self.accel_bias.tolist()
+        lat, alpha = math.asin(max(-1.0, min(1.0, c8))), math.atan2(-c5, c2)
+        sl, cl, sa, ca = math.sin(lat), math.cos(lat), math.sin(alpha), math.cos(alpha)
+        irx, iry, itau = earth.wander_radii(lat, h, alpha)
+        r0, r1 = -v1 * iry + v0 * itau, v0 * irx - v1 * itau                  # transport rate, rho_z = 0
+        o0, o1, o2 = earth.OMEGA * (cl * ca), earth.OMEGA * (-cl * sa), earth.OMEGA * sl   # earth rate in C
         # steps 3-5: body rotation relative to C, quaternion update (5-3-7..10)
-        theta_b = c_bc.T @ (TD * ((rho + omega) * dt))
-        s.q = quaternion.rotate_increment(s.q, (np.asarray(gyro_frd) - self.gyro_bias) * dt - theta_b)
+        (d0, d1, d2), (d3, d4, d5), (d6, d7, d8) = quaternion.dcm_rows(s.q.tolist())
+        w0, w1, w2 = (r0 + o0) * dt, -((r1 + o1) * dt), -((0.0 + o2) * dt)
+        q = quaternion.increment((gx - bgx) * dt - (d0 * w0 + d3 * w1 + d6 * w2),
+                                 (gy - bgy) * dt - (d1 * w0 + d4 * w1 + d7 * w2),
+                                 (gz - bgz) * dt - (d2 * w0 + d5 * w1 + d8 * w2), *s.q.tolist())
+        s.q = np.array(q)
         # steps 6-7: specific force into C, velocity with Coriolis and gravity (5-3-14, 5-3-15)
-        c_bc = quaternion.to_dcm(s.q)
-        a_c = TD * (c_bc @ (np.asarray(accel_frd) - self.accel_bias))
-        v_old = s.v
-        s.v = v_old + (a_c - cross(rho + 2.0 * omega, v_old) + earth.gravity_c(lat, s.h, alpha)) * dt
+        c_bc = quaternion.dcm_rows(q)
+        (d0, d1, d2), (d3, d4, d5), (d6, d7, d8) = c_bc
+        fx, fy, fz = ax - bax, ay - bay, az - baz
+        a_c = (d0 * fx + d1 * fy + d2 * fz, -(d3 * fx + d4 * fy + d5 * fz), -(d6 * fx + d7 * fy + d8 * fz))
+        p0, p1, p2 = r0 + 2.0 * o0, r1 + 2.0 * o1, 0.0 + 2.0 * o2
+        g_n = -8.08e-9 * h * math.sin(2.0 * lat)
+        gc = (g_n * ca, -g_n * sa, -earth.gravity(lat, h))
+        n0 = v0 + (a_c[0] - (p1 * v2 - p2 * v1) + gc[0]) * dt
+        n1 = v1 + (a_c[1] - (p2 * v0 - p0 * v2) + gc[1]) * dt
+        n2 = v2 + (a_c[2] - (p0 * v1 - p1 * v0) + gc[2]) * dt
+        s.v = np.array((n0, n1, n2))
         # steps 8-9: transport rate at mid-interval velocity, C_E^C and height (5-3-16..22)
-        v_mid = 0.5 * (v_old + s.v)
-        rho_mid = earth.transport_rate(v_mid, lat, s.h, alpha)
-        s.c_ec = rotation(-rho_mid * dt) @ s.c_ec
-        s.h += v_mid[2] * dt
-        return rho_mid, omega, a_c, c_bc
+        m0, m1, m2 = 0.5 * (v0 + n0), 0.5 * (v1 + n1), 0.5 * (v2 + n2)
+        rho_mid = (-m1 * iry + m0 * itau, m0 * irx - m1 * itau, 0.0)
+        (e0, e1, e2), (e3, e4, e5), (e6, e7, e8) = rotation_rows(-rho_mid[0] * dt, -rho_mid[1] * dt, -0.0 * dt)
+        s.c_ec = np.array(((e0 * c0 + e1 * c3 + e2 * c6, e0 * c1 + e1 * c4 + e2 * c7, e0 * c2 + e1 * c5 + e2 * c8),
+                           (e3 * c0 + e4 * c3 + e5 * c6, e3 * c1 + e4 * c4 + e5 * c7, e3 * c2 + e4 * c5 + e5 * c8),
+                           (e6 * c0 + e7 * c3 + e8 * c6, e6 * c1 + e7 * c4 + e8 * c7, e6 * c2 + e7 * c5 + e8 * c8)))
+        s.h = h + m2 * dt
+        return rho_mid, (o0, o1, o2), a_c, c_bc
 
     def renormalize(self):
         """Re-orthonormalise C_E^C ([IMPL] of step 9)."""

@@ -15,12 +15,15 @@ def from_roll_pitch_yaw(roll, pitch, yaw=0.0):
 
 def to_dcm(q):
     """Body -> C-bar direction cosine matrix (5-3-5)."""
-    q0, q1, q2, q3 = np.asarray(q, dtype=float).tolist()   # Python floats: cheaper scalar arithmetic than numpy's
-    return np.array([
-        [q0 * q0 + q1 * q1 - q2 * q2 - q3 * q3, 2 * (q1 * q2 - q0 * q3), 2 * (q1 * q3 + q0 * q2)],
-        [2 * (q1 * q2 + q0 * q3), q0 * q0 - q1 * q1 + q2 * q2 - q3 * q3, 2 * (q2 * q3 - q0 * q1)],
-        [2 * (q1 * q3 - q0 * q2), 2 * (q2 * q3 + q0 * q1), q0 * q0 - q1 * q1 - q2 * q2 + q3 * q3],
-    ])
+    return np.array(dcm_rows(np.asarray(q, dtype=float).tolist()))
+
+
+def dcm_rows(q):
+    """to_dcm of q = (q0, q1, q2, q3) Python floats, as three row tuples (cheaper scalar arithmetic than numpy's)."""
+    q0, q1, q2, q3 = q
+    return ((q0 * q0 + q1 * q1 - q2 * q2 - q3 * q3, 2 * (q1 * q2 - q0 * q3), 2 * (q1 * q3 + q0 * q2)),
+            (2 * (q1 * q2 + q0 * q3), q0 * q0 - q1 * q1 + q2 * q2 - q3 * q3, 2 * (q2 * q3 - q0 * q1)),
+            (2 * (q1 * q3 - q0 * q2), 2 * (q2 * q3 + q0 * q1), q0 * q0 - q1 * q1 - q2 * q2 + q3 * q3))
 
 
 def from_dcm(c):
@@ -47,21 +50,32 @@ def from_dcm(c):
 def rotate_increment(q, dtheta):
     """q <- q (x) [cos(|dθ|/2), sin(|dθ|/2) dθ/|dθ|]: exact form of (5-3-10), normalised."""
     d0, d1, d2 = np.asarray(dtheta, dtype=float).tolist()
+    return np.array(increment(d0, d1, d2, *np.asarray(q, dtype=float).tolist()))
+
+
+def increment(d0, d1, d2, q0, q1, q2, q3):
+    """rotate_increment on Python floats: the rotation vector (d0, d1, d2), q = (q0..q3); a tuple."""
     a = math.sqrt(d0 ** 2 + d1 ** 2 + d2 ** 2)
     if a < 1e-12:
         r0, r1, r2, r3 = 1.0, 0.5 * d0, 0.5 * d1, 0.5 * d2
     else:
         s = math.sin(a / 2) / a
         r0, r1, r2, r3 = math.cos(a / 2), s * d0, s * d1, s * d2
-    q0, q1, q2, q3 = np.asarray(q, dtype=float).tolist()
-    out = np.array([q0 * r0 - q1 * r1 - q2 * r2 - q3 * r3,
-                    q0 * r1 + q1 * r0 + q2 * r3 - q3 * r2,
-                    q0 * r2 - q1 * r3 + q2 * r0 + q3 * r1,
-                    q0 * r3 + q1 * r2 - q2 * r1 + q3 * r0])
-    return out / math.sqrt(out @ out)
+    o0 = q0 * r0 - q1 * r1 - q2 * r2 - q3 * r3
+    o1 = q0 * r1 + q1 * r0 + q2 * r3 - q3 * r2
+    o2 = q0 * r2 - q1 * r3 + q2 * r0 + q3 * r1
+    o3 = q0 * r3 + q1 * r2 - q2 * r1 + q3 * r0
+    n = math.sqrt(o0 * o0 + o1 * o1 + o2 * o2 + o3 * o3)
+    return o0 / n, o1 / n, o2 / n, o3 / n
 
 
 def euler(c):
     """(roll, pitch, yaw) of a body -> C-bar DCM (5-3-11..13)."""
     return (math.atan2(c[2, 1], c[2, 2]), -math.asin(max(-1.0, min(1.0, c[2, 0]))),
             math.atan2(c[1, 0], c[0, 0]))
+
+
+def roll(q):
+    """Roll of quaternion (q0..q3) (Python floats): euler(to_dcm(q))[0] without the matrix."""
+    q0, q1, q2, q3 = q
+    return math.atan2(2 * (q2 * q3 + q0 * q1), q0 * q0 - q1 * q1 - q2 * q2 + q3 * q3)

@@ -1,0 +1,61 @@
+"""The IMU-point NavSolution of an InsEkf (`InsEkf.solution`), formed once per IMU sample: the attitude, velocity and
+covariance-block rotations are written out on Python floats (3x3 numpy products cost more than the arithmetic);
+test/ins/test_scalar_paths.py checks them against the matrix form."""
+import math
+
+import numpy as np
+
+from . import earth, error_model as em, quaternion
+from .constraints import CRAB
+from .settings import NavSolution
+
+TWO_PI = 2.0 * math.pi
+
+
+def mat3(a, b):
+    """a @ b of 3x3 row tuples."""
+    (a0, a1, a2), (a3, a4, a5), (a6, a7, a8) = a
+    (b0, b1, b2), (b3, b4, b5), (b6, b7, b8) = b
+    return ((a0 * b0 + a1 * b3 + a2 * b6, a0 * b1 + a1 * b4 + a2 * b7, a0 * b2 + a1 * b5 + a2 * b8),
+            (a3 * b0 + a4 * b3 + a5 * b6, a3 * b1 + a4 * b4 + a5 * b7, a3 * b2 + a4 * b5 + a5 * b8),
+            (a6 * b0 + a7 * b3 + a8 * b6, a6 * b1 + a7 * b4 + a8 * b7, a6 * b2 + a7 * b5 + a8 * b8))
+
+
+def congruence3(m, c):
+    """m @ c @ m.T of 3x3 row tuples."""
+    (m0, m1, m2), (m3, m4, m5), (m6, m7, m8) = m
+    (b0, b1, b2), (b3, b4, b5), (b6, b7, b8) = mat3(m, c)
+    return ((b0 * m0 + b1 * m1 + b2 * m2, b0 * m3 + b1 * m4 + b2 * m5, b0 * m6 + b1 * m7 + b2 * m8),
+            (b3 * m0 + b4 * m1 + b5 * m2, b3 * m3 + b4 * m4 + b5 * m5, b3 * m6 + b4 * m7 + b5 * m8),
+            (b6 * m0 + b7 * m1 + b8 * m2, b6 * m3 + b7 * m4 + b8 * m5, b6 * m6 + b7 * m7 + b8 * m8))
+
+
+def nav_solution(ekf):
+    """NavSolution of the filter's current state (see InsEkf.solution)."""
+    st, p = ekf.mech.state, ekf.p
+    lat, alpha, h = st.lat, st.alpha, st.h
+    r0, r1, r2 = quaternion.dcm_rows(st.q.tolist())           # C_B^Cbar
+    (c0, c1, c2), (c3, _, _), (c6, c7, c8) = r0, r1, r2
+    ca, sa = math.cos(alpha), math.sin(alpha)
+    roll, pitch, yaw_c = math.atan2(c7, c8), -math.asin(max(-1.0, min(1.0, c6))), math.atan2(c3, c0)
+    v0, v1, v2 = st.v.tolist()
+    # C-bar -> NED is [[ca, sa, 0], [-sa, ca, 0], [0, 0, 1]]; C -> ENU is [[-sa, -ca, 0], [ca, -sa, 0], [0, 0, 1]]
+    c_b_ned = np.array((tuple(ca * x + sa * y for x, y in zip(r0, r1)), tuple(-sa * x + ca * y for x, y in zip(r0, r1)),
+                        r2))
+    # horizontal position: A diag(P_rx, P_ry) A^T with A = c_axes(alpha) (R + h) (ENU from the C-axis angles)
+    big_r = earth.mean_radius(lat) + h
+    a00, a01, a10, a11 = ca * big_r, -sa * big_r, sa * big_r, ca * big_r
+    (p00, p01), (p10, p11) = p[:2, :2].tolist()
+    b00, b01, b10, b11 = a00 * p00 + a01 * p10, a00 * p01 + a01 * p11, a10 * p00 + a11 * p10, a10 * p01 + a11 * p11
+    pos = ekf.fix_drift_cov + np.array(((b00 * a00 + b01 * a01, b00 * a10 + b01 * a11, 0.0),
+                                        (b10 * a00 + b11 * a01, b10 * a10 + b11 * a11, 0.0),
+                                        (0.0, 0.0, p[em.H, em.H])))
+    rx, ry, *_, rz = p[em.VX:em.VZ + 1, em.VX:em.VZ + 1].tolist()      # rows VX, VY, .., VZ
+    vel = congruence3(((-sa, -ca, 0.0), (ca, -sa, 0.0), (0.0, 0.0, 1.0)),
+                      ((rx[0], rx[1], rx[-1]), (ry[0], ry[1], ry[-1]), (rz[0], rz[1], rz[-1])))
+    tx, ty, c = p[em.TX, em.TX], p[em.TY, em.TY], p[em.TX, em.TY]
+    tilt = 0.5 * (tx + ty) + math.hypot(0.5 * (tx - ty), c)   # largest: roll and pitch are rotated C-axis tilts
+    return NavSolution(ekf.t, lat, st.lon, h, np.array((ca * v0 - sa * v1, -sa * v0 - ca * v1, -v2)), roll, pitch,
+                       math.remainder(yaw_c - alpha, TWO_PI), ekf.omega_b.copy(), c_b_ned, pos, np.array(vel),
+                       np.array((tilt, tilt, p[em.GAMMA, em.GAMMA])), p.diagonal()[em.BG].copy(),
+                       ekf.crab, p[CRAB, CRAB] if ekf.nhc is not None else math.inf)
