@@ -13,12 +13,10 @@ import math
 from collections import deque
 
 import numpy as np
-from scipy.linalg import block_diag
-from scipy.stats import chi2
 
 from agnav_fusion import kalman
 
-from . import earth, error_model as em, feedback, quaternion
+from . import chi2, earth, error_model as em, feedback, quaternion
 from .constraints import CRAB, NonHolonomic
 from .history import SolutionHistory
 from .alignment import FixTrack, initial_state, initial_variances
@@ -369,7 +367,10 @@ class InsEkf:
         """Update with the stacked accepted observations (kalman.update, Joseph form), fed back."""
         z = np.concatenate([m.z for m in accepted])
         h = np.vstack([m.h for m in accepted])
-        r = block_diag(*[m.r for m in accepted])
+        r, k = np.zeros((len(z), len(z))), 0       # block diagonal of the Rs
+        for m in accepted:
+            r[k:k + len(m.z), k:k + len(m.z)] = m.r
+            k += len(m.z)
         x, p = kalman.update(np.zeros(self.n_states), self.p, z, h @ self.p @ h.T + r, h, r)
         self._feedback(x, p)
 
