@@ -19,7 +19,7 @@ from agnav_common.input_guard import StreamClockSettings
 
 from agnav_fusion.front_end import InputGuard, InputGuardSettings, Overdue
 from agnav_fusion.ins import GnssSample, InsEkf, InsEkfSettings
-from agnav_fusion.ins.frames import FRD, FastPlane, Mounts, base_link_state
+from agnav_fusion.ins.frames import FRD, FastPlane, Mounts, base_link_state, ekf_base_link_state
 from agnav_fusion.nav_settings import NavState
 
 SKIP = ("lever_gnss_frd", "lever_base_frd", "initial_heading", "initial_heading_sigma", "guard.gnss_max_lead")  # TF / REP-103 / ekf
@@ -153,17 +153,24 @@ class InsNavigation:
     # ---- output -------------------------------------------------------------------------------------------
     def _output(self):
         """NavState of base_link (None before initialisation, or counted output_invalid when not publishable)."""
-        sol = self.ekf.solution()
-        if sol is None or self.plane is None:
+        if self.plane is None:
             return None
-        rate_var = self.settings.ekf.error.gyro_arw ** 2 / self.ekf.imu_period   # gyro white noise in its band
-        b = base_link_state(sol, self.mounts, self.enu_plane, (rate_var,) * 3)
+        rate_var = (self.settings.ekf.error.gyro_arw ** 2 / self.ekf.imu_period,) * 3   # gyro white noise in its band
+        if type(self.ekf) is InsEkf:        # without the NavSolution's arrays (the same values)
+            if self.ekf.mech is None:
+                return None
+            b, crab, crab_var = ekf_base_link_state(self.ekf, self.mounts, self.enu_plane, rate_var)
+        else:
+            sol = self.ekf.solution()
+            if sol is None:
+                return None
+            b, crab, crab_var = base_link_state(sol, self.mounts, self.enu_plane, rate_var), sol.crab, sol.crab_var
         if not (b.finite() and b.positive_definite()):   # published covariances must be
             self.guard.count("output_invalid")
             return None
         outage = self.ekf.gnss_age() > self.settings.gnss_timeout
         return NavState(b.t, b.position, b.rpy, b.pose_cov, float(b.velocity[0]), b.rates, b.twist_cov,
-                        True, True, outage, sol.crab, sol.crab_var)
+                        True, True, outage, crab, crab_var)
 
     def health(self):
         """Filter health for the diagnostics: alignment, mode, NIS means, counts, GNSS age, heading sigma."""

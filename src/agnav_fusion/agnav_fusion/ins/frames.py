@@ -12,7 +12,7 @@ from agnav_common.frames import wrap_angle
 
 from .earth import radii
 from .measurements import ENU_TO_NED
-from .solution import congruence3
+from .solution import congruence3, solution_parts
 
 FLU_TO_FRD = np.diag([1.0, -1.0, -1.0])
 FRD = FLU_TO_FRD.diagonal().copy()   # FLU <-> FRD sign flips: x * FRD == x @ FLU_TO_FRD (per-sample paths)
@@ -98,35 +98,49 @@ class FastPlane:
 
 def base_link_state(sol, mounts, plane, rate_var=(0.0, 0.0, 0.0)):
     """BaseLinkState from an IMU-point NavSolution: moved to base_link by the mount (5-5-3, ω x l), attitude and
-    covariances rotated to REP-103. plane: agnav_common LocalTangentPlane; rate_var: gyro white-noise variance.
-    Once per IMU sample: Python floats throughout (the matrix form is in test/ins/test_scalar_paths.py)."""
-    c = sol.c_b_ned.tolist()
+    covariances rotated to REP-103. plane: agnav_common LocalTangentPlane; rate_var: gyro white-noise variance."""
+    return _base_link(sol.t, sol.lat, sol.lon, sol.h, sol.v_ned.tolist(), sol.roll, sol.pitch, sol.heading,
+                      sol.omega_b.tolist(), sol.c_b_ned.tolist(), sol.pos_cov_enu.tolist(), sol.vel_cov_enu.tolist(),
+                      sol.att_var.tolist(), sol.gyro_bias_var.tolist(), mounts, plane, rate_var)
+
+
+def ekf_base_link_state(ekf, mounts, plane, rate_var=(0.0, 0.0, 0.0)):
+    """(base_link_state(ekf.solution(), ...), crab, crab variance) of an initialised InsEkf without forming the
+    NavSolution's arrays (once per IMU sample)."""
+    parts = solution_parts(ekf)
+    return _base_link(*parts[:14], mounts, plane, rate_var), parts[14], parts[15]
+
+
+def _base_link(t, lat0, lon0, h0, v_ned, roll, pitch, heading, omega_b, c, pos_cov, vel_cov, att_var, gyro_bias_var,
+               mounts, plane, rate_var):
+    """base_link_state on Python floats, 3-tuples and 3x3 row tuples (the matrix form is in
+    test/ins/test_scalar_paths.py)."""
     (c0, c1, c2), (c3, c4, c5), (c6, c7, c8) = c
     l0, l1, l2 = mounts.lever_imu_frd.tolist()                      # base_link -> IMU; the lever is its negative
     d0, d1, d2 = c0 * l0 + c1 * l1 + c2 * l2, c3 * l0 + c4 * l1 + c5 * l2, c6 * l0 + c7 * l1 + c8 * l2
-    rm, rn = radii(sol.lat)
-    lat, h = sol.lat - d0 / (rm + sol.h), sol.h + d2
-    position = plane.to_enu(math.degrees(lat), math.degrees(sol.lon - d1 / ((rn + sol.h) * math.cos(sol.lat))), h)
+    rm, rn = radii(lat0)
+    lat, h = lat0 - d0 / (rm + h0), h0 + d2
+    position = plane.to_enu(math.degrees(lat), math.degrees(lon0 - d1 / ((rn + h0) * math.cos(lat0))), h)
     # base_link FLU -> ENU: NED_TO_ENU C diag(FRD)
     rbe = ((c3, -c4, -c5), (c0, -c1, -c2), (-c6, c7, c8))
-    w0, w1, w2 = sol.omega_b.tolist()
+    w0, w1, w2 = omega_b
     k0, k1, k2 = -(w1 * l2 - w2 * l1), -(w2 * l0 - w0 * l2), -(w0 * l1 - w1 * l0)     # ω x lever
-    n0, n1, n2 = sol.v_ned.tolist()
+    n0, n1, n2 = v_ned
     n0, n1, n2 = n0 + (c0 * k0 + c1 * k1 + c2 * k2), n1 + (c3 * k0 + c4 * k1 + c5 * k2), n2 + (c6 * k0 + c7 * k1 + c8 * k2)
     velocity = (c0 * n0 + c3 * n1 + c6 * n2, -(c1 * n0 + c4 * n1 + c7 * n2), -(c2 * n0 + c5 * n1 + c8 * n2))
     # the mount lever turned by an attitude error moves base_link: δp = φ x (C l), φ ~ N(0, diag(att_var));
     # arm = NED_TO_ENU [C l x] with C l = -d
     u0, u1, u2 = -d0, -d1, -d2
-    ta, tb, tc = sol.att_var.tolist()
-    (e00, e01, e02), (e10, e11, e12), (e20, e21, e22) = sol.pos_cov_enu.tolist()
+    ta, tb, tc = att_var
+    (e00, e01, e02), (e10, e11, e12), (e20, e21, e22) = pos_cov
     s00, s01, s02 = u2 * ta * u2 + u0 * tc * u0, -(u0 * tc * u1), u2 * ta * u1
     s11, s12, s22 = u2 * tb * u2 + u1 * tc * u1, u2 * tb * u0, u1 * ta * u1 + u0 * tb * u0
     p00, p11, p22 = e00 + s00, e11 + s11, e22 + s22
     p01, p02, p12 = ((e01 + s01) + (e10 + s01)) / 2, ((e02 + s02) + (e20 + s02)) / 2, ((e12 + s12) + (e21 + s12)) / 2
-    (v00, v01, v02), (v10, v11, v12), (v20, v21, v22) = congruence3(tuple(zip(*rbe)), sol.vel_cov_enu.tolist())
+    (v00, v01, v02), (v10, v11, v12), (v20, v21, v22) = congruence3(tuple(zip(*rbe)), vel_cov)
     v01, v02, v12 = (v01 + v10) / 2, (v02 + v20) / 2, (v12 + v21) / 2          # exactly symmetric
-    g0, g1, g2 = (b + r for b, r in zip(sol.gyro_bias_var.tolist(), rate_var))
-    rpy = (sol.roll, -sol.pitch, wrap_angle(math.pi / 2 - sol.heading))
+    g0, g1, g2 = (b + r for b, r in zip(gyro_bias_var, rate_var))
+    rpy = (roll, -pitch, wrap_angle(math.pi / 2 - heading))
     rates = (w0, -w1, -w2)
     total = (sum(position) + sum(rpy) + sum(velocity) + sum(rates) + p00 + p11 + p22 + p01 + p02 + p12 + ta + tb + tc
              + v00 + v11 + v22 + v01 + v02 + v12 + g0 + g1 + g2)
@@ -138,7 +152,7 @@ def base_link_state(sol, mounts, plane, rate_var=(0.0, 0.0, 0.0)):
     twist_cov = np.array((v00, v01, v02, 0.0, 0.0, 0.0, v01, v11, v12, 0.0, 0.0, 0.0, v02, v12, v22, 0.0, 0.0, 0.0,
                           0.0, 0.0, 0.0, g0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, g1, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, g2)
                          ).reshape(6, 6)
-    return BaseLinkState(sol.t, np.array(position, dtype=float), np.array(rpy), pose_cov, np.array(velocity),
+    return BaseLinkState(t, np.array(position, dtype=float), np.array(rpy), pose_cov, np.array(velocity),
                          np.array(rates), twist_cov, (math.isfinite(total), pd))
 
 

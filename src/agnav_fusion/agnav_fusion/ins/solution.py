@@ -30,32 +30,42 @@ def congruence3(m, c):
             (b6 * m0 + b7 * m1 + b8 * m2, b6 * m3 + b7 * m4 + b8 * m5, b6 * m6 + b7 * m7 + b8 * m8))
 
 
-def nav_solution(ekf):
-    """NavSolution of the filter's current state (see InsEkf.solution)."""
+def solution_parts(ekf):
+    """The NavSolution fields of the filter's current state (see InsEkf.solution) as Python floats, 3-tuples and
+    3x3 row tuples."""
     st, p = ekf.mech.state, ekf.p
     lat, alpha, h = st.lat, st.alpha, st.h
     r0, r1, r2 = quaternion.dcm_rows(st.q.tolist())           # C_B^Cbar
     (c0, c1, c2), (c3, _, _), (c6, c7, c8) = r0, r1, r2
     ca, sa = math.cos(alpha), math.sin(alpha)
-    roll, pitch, yaw_c = math.atan2(c7, c8), -math.asin(max(-1.0, min(1.0, c6))), math.atan2(c3, c0)
     v0, v1, v2 = st.v.tolist()
     # C-bar -> NED is [[ca, sa, 0], [-sa, ca, 0], [0, 0, 1]]; C -> ENU is [[-sa, -ca, 0], [ca, -sa, 0], [0, 0, 1]]
-    c_b_ned = np.array((tuple(ca * x + sa * y for x, y in zip(r0, r1)), tuple(-sa * x + ca * y for x, y in zip(r0, r1)),
-                        r2))
-    # horizontal position: A diag(P_rx, P_ry) A^T with A = c_axes(alpha) (R + h) (ENU from the C-axis angles)
+    c_b_ned = ((ca * r0[0] + sa * r1[0], ca * r0[1] + sa * r1[1], ca * r0[2] + sa * r1[2]),
+               (-sa * r0[0] + ca * r1[0], -sa * r0[1] + ca * r1[1], -sa * r0[2] + ca * r1[2]), r2)
+    # horizontal position: A P[:2, :2] A^T with A = c_axes(alpha) (R + h) (ENU from the C-axis angles)
     big_r = earth.mean_radius(lat) + h
     a00, a01, a10, a11 = ca * big_r, -sa * big_r, sa * big_r, ca * big_r
     (p00, p01), (p10, p11) = p[:2, :2].tolist()
     b00, b01, b10, b11 = a00 * p00 + a01 * p10, a00 * p01 + a01 * p11, a10 * p00 + a11 * p10, a10 * p01 + a11 * p11
-    pos = ekf.fix_drift_cov + np.array(((b00 * a00 + b01 * a01, b00 * a10 + b01 * a11, 0.0),
-                                        (b10 * a00 + b11 * a01, b10 * a10 + b11 * a11, 0.0),
-                                        (0.0, 0.0, p[em.H, em.H])))
+    (f00, f01, f02), (f10, f11, f12), (f20, f21, f22) = ekf.fix_drift_cov.tolist()
+    pos = ((f00 + (b00 * a00 + b01 * a01), f01 + (b00 * a10 + b01 * a11), f02 + 0.0),
+           (f10 + (b10 * a00 + b11 * a01), f11 + (b10 * a10 + b11 * a11), f12 + 0.0),
+           (f20 + 0.0, f21 + 0.0, f22 + p[em.H, em.H]))
     rx, ry, *_, rz = p[em.VX:em.VZ + 1, em.VX:em.VZ + 1].tolist()      # rows VX, VY, .., VZ
     vel = congruence3(((-sa, -ca, 0.0), (ca, -sa, 0.0), (0.0, 0.0, 1.0)),
                       ((rx[0], rx[1], rx[-1]), (ry[0], ry[1], ry[-1]), (rz[0], rz[1], rz[-1])))
     tx, ty, c = p[em.TX, em.TX], p[em.TY, em.TY], p[em.TX, em.TY]
     tilt = 0.5 * (tx + ty) + math.hypot(0.5 * (tx - ty), c)   # largest: roll and pitch are rotated C-axis tilts
-    return NavSolution(ekf.t, lat, st.lon, h, np.array((ca * v0 - sa * v1, -sa * v0 - ca * v1, -v2)), roll, pitch,
-                       math.remainder(yaw_c - alpha, TWO_PI), ekf.omega_b.copy(), c_b_ned, pos, np.array(vel),
-                       np.array((tilt, tilt, p[em.GAMMA, em.GAMMA])), p.diagonal()[em.BG].copy(),
-                       ekf.crab, p[CRAB, CRAB] if ekf.nhc is not None else math.inf)
+    bg = em.BG.start
+    return (ekf.t, lat, st.lon, h, (ca * v0 - sa * v1, -sa * v0 - ca * v1, -v2), math.atan2(c7, c8),
+            -math.asin(max(-1.0, min(1.0, c6))), math.remainder(math.atan2(c3, c0) - alpha, TWO_PI),
+            ekf.omega_b.tolist(), c_b_ned, pos, vel, (tilt, tilt, p[em.GAMMA, em.GAMMA]),
+            (p[bg, bg], p[bg + 1, bg + 1], p[bg + 2, bg + 2]), ekf.crab,
+            p[CRAB, CRAB] if ekf.nhc is not None else math.inf)
+
+
+def nav_solution(ekf):
+    """NavSolution of the filter's current state (see InsEkf.solution)."""
+    t, lat, lon, h, v, roll, pitch, heading, w, c, pos, vel, att, gbv, crab, crab_var = solution_parts(ekf)
+    return NavSolution(t, lat, lon, h, np.array(v), roll, pitch, heading, np.array(w), np.array(c), np.array(pos),
+                       np.array(vel), np.array(att), np.array(gbv), crab, crab_var)
