@@ -60,8 +60,9 @@ def feed(pipeline, topic, msg):
     return getattr(pipeline, method)(msg) if method else None
 
 
-def run_rows(pipeline, config, rows):
-    """Feed (topic, msg) rows in order (the first /tf_static sets the mounts); -> [state of every IMU message]."""
+def run_rows(pipeline, config, rows, observe=None):
+    """Feed (topic, msg) rows in order (the first /tf_static sets the mounts); -> [state of every IMU message].
+    observe(topic, msg), when given, is called after each message fed (a benchmark's look at the pipeline)."""
     states, mounted = [], False
     for topic, msg in rows:
         if topic == "/tf_static" and not mounted:
@@ -71,11 +72,14 @@ def run_rows(pipeline, config, rows):
             state = feed(pipeline, topic, msg)
             if topic == IMU:
                 states.append(state)
+            if observe:
+                observe(topic, msg)
     return states
 
 
-def replay(config, bag, pipeline=None):
-    """The states the navigation node publishes for `bag` (initialised ones), and the pipeline it ran."""
+def replay(config, bag, pipeline=None, observe=None):
+    """The states the navigation node publishes for `bag` (initialised ones), and the pipeline it ran (observe: as
+    in run_rows)."""
     pipeline = pipeline or pipeline_for(config)
     remap, topics = config.bag_remap, inputs(pipeline)
     with AnyReader([bag], default_typestore=typestore()) as reader:
@@ -86,5 +90,5 @@ def replay(config, bag, pipeline=None):
         set_mounts(pipeline, config, tf_static)
         rows = ((topic_of[c.id], reader.deserialize(raw, c.msgtype))
                 for c, _, raw in reader.messages(connections=[c for c in wanted if topic_of[c.id] in topics]))
-        states = run_rows(pipeline, config, rows)
+        states = run_rows(pipeline, config, rows, observe)
     return [s for s in states if s is not None and pipeline.ready(s)], pipeline

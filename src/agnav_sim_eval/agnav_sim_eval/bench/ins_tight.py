@@ -12,13 +12,13 @@ Two runs: 'kinematic' (position re-estimated each epoch, as RTKLIB's run and a m
 the fixed errors and the cost; 'static' (position held, float only) gives the converged float baseline.
 Cost: ms per epoch of satellite states + DDs + EKF + LAMBDA (RINEX parsing excluded) of the kinematic run;
 `cost_ms_per_epoch_20sat` the same with both receivers cut to the 20 satellites highest at the first epoch.
-Simulated part (agnav_sim_eval.sim.gnss_raw_sim_runs): the mems_field run (seed SIM_SEED, 2 m/s passes with
-U-turns, consumer MEMS IMU) with simulated rover/base observations (orbits of the same base.nav, 1 km baseline),
-loosely coupled InsEkf until 60 s, then the TightFilter on a copy of its INS state; window 120–180 s: 'three_sat'
-(3 GPS satellites above the mask, no receiver fix: the loose filter coasts) and 'float' (every satellite loses
-lock, then a tree line over the west half of the sky with the receiver in RTK float: the loose filter gets float
-fixes, the tight filter does not fix). Horizontal antenna errors at the 1 Hz epochs. Switching
-(sim.gnss_raw_sim_switch, same run): `switch_max_jump_sigma` over every mode change, `refix_time_s` after a full outage.
+Simulated part, through the shipped pipeline (agnav_sim_eval.offline.pipeline_for('ins_tight'): what `agnav run
+ins_tight` publishes): the switching runs of sim.gnss_raw_sim_bag (mems_field, seeds `--seeds`, default SIM_SEEDS;
+RTK fixed, float under a tree line, 3 GPS satellites, outage, float, fixed) replayed from their bags; the loosely
+coupled / INS-only comparison is pipeline_for('ins') on the same bag. Horizontal base_link errors against the
+truth; `switch_max_jump_sigma` over every mode change (Switching.transitions), `refix_time_s` after the outage;
+the worst seed's value of each at the top level, every seed's in `sim_per_seed`; replay speeds of the graph and the
+pipeline (x real time).
 """
 import argparse
 import json
@@ -29,6 +29,8 @@ from pathlib import Path
 import numpy as np
 
 from agnav_sim_eval.bench import docs_option, write_docs
+from agnav_sim_eval.sim.gnss_raw_sim_bag import record_raw_run, windows
+from agnav_sim_eval.sim.messages import START_EPOCH_S
 from agnav_fusion.gnss_raw.baseline import BaselineConfig, process
 from agnav_fusion.gnss_raw.geometry import llh_to_ecef, to_enu
 from agnav_drivers.ubx import GnssObservations, NavDataFrame, UbxParser
@@ -40,7 +42,9 @@ from agnav_fusion.gnss_raw.observations import ObsEpoch, match_epochs
 from agnav_fusion.gnss_raw.raw_input import SubframeNav, epochs_from_events
 from agnav_fusion.gnss_raw.rinex import read_nav, read_obs
 
-SIM_SEED = 1
+SIM_SEEDS = (1000, 1001, 1002, 1003, 1004)   # reported; tuned on seeds < 1000 (`--seeds 1,2,3`)
+PER_SEED_MAX = ("three_sat_end_err_cm", "three_sat_loose_end_err_cm", "three_sat_max_err_cm", "float_rms_cm",
+                "float_loose_rms_cm", "float_max_err_cm", "switch_max_jump_sigma")
 DATA = Path("/work/shared/data/real/gnss_raw/matrtklib_static")
 WALK = Path("/work/shared/data/real/gnss_raw/gnss_imu_walk")
 
@@ -141,38 +145,100 @@ def walk_doppler(data=WALK):
             "walk_ephemerides": len(nav.nav.eph), "walk_doppler_ms_per_epoch": round(ms, 1)}
 
 
-def simulated(seed=SIM_SEED):
-    """Keys of the simulated 3-satellite and RTK-float windows (loose vs tight in the same run)."""
-    from agnav_sim_eval.sim.gnss_raw_sim_runs import run_coupled, window_errors
-    from agnav_sim_eval.sim.run import simulate
-    run, nav = simulate("mems_field", seed=seed), read_nav(DATA / "base.nav")
-    three, flt = run_coupled(run, nav, "three_sat"), run_coupled(run, nav, "float")
-    _, t3, l3 = window_errors(three)
-    _, tf, lf = window_errors(flt)
-
-    def rms(a):
-        return _cm(np.sqrt(np.mean(a ** 2)))
-    return {"sim_seed": seed, "three_sat_end_err_cm": _cm(t3[-1]), "three_sat_loose_end_err_cm": _cm(l3[-1]),
-            "three_sat_max_err_cm": _cm(t3.max()), "three_sat_dd_per_epoch": float(np.mean(
-                three.n_dd[(three.t >= 120) & (three.t < 180)])),
-            "float_rms_cm": rms(tf), "float_loose_rms_cm": rms(lf), "float_max_err_cm": _cm(tf.max()),
-            "float_loose_max_err_cm": _cm(lf.max()),
-            "sim_fix_rate_outside_windows": round(float(np.mean(three.fixed[(three.t < 120) | (three.t >= 180)])), 3),
-            "sim_tight_ms_per_epoch": round(three.ms_per_epoch, 1), **switching(run, nav)}
+def _horizontal_cm(states, plane, bag):
+    """(t - START_EPOCH_S, horizontal base_link error [cm]) of pipeline states against the bag's ground truth."""
+    from agnav_sim_eval.evaluate import error_series, move_datum, odometry_arrays, read_bag
+    ref = read_bag(bag, ["/ground_truth/odometry", "/map_datum"])
+    sim = ref["/map_datum"][0][1]
+    truth = move_datum(odometry_arrays(ref["/ground_truth/odometry"]), (sim.latitude, sim.longitude, sim.altitude),
+                       (plane.lat_deg, plane.lon_deg, plane.alt_m))
+    est = {"t": np.array([st.t for st in states]), "x": np.array([st.position[0] for st in states]),
+           "y": np.array([st.position[1] for st in states])}
+    err = error_series(est, truth)
+    return err["t"] - START_EPOCH_S, np.hypot(err["east"], err["north"])
 
 
-def switching(run, nav):
-    """Keys of the switching run (sim.gnss_raw_sim_switch): jump per transition in σ, re-fix time."""
-    from agnav_sim_eval.sim.gnss_raw_sim_switch import run_switching
-    res = run_switching(run, nav)
-    return {"switch_max_jump_sigma": round(max(tr["jump_sigma"] for tr in res.transitions), 2),
-            "switch_transitions": [{"t": round(float(tr["t"]), 2), "from": tr["from"], "to": tr["to"],
-                                    "jump_sigma": round(tr["jump_sigma"], 2), "jump_cm": _cm(tr["jump_m"])}
-                                   for tr in res.transitions],
-            "refix_time_s": round(float(res.refix_time_s), 2)}
+def simulated_seed(seed, tmp, graph=False):
+    """One simulated switching run (sim.gnss_raw_sim_bag, windows()) through offline.pipeline_for('ins_tight') and,
+    for the loosely coupled / INS-only comparison, pipeline_for('ins') on the same bag; graph: also `agnav run
+    ins_tight` on it (replay speed)."""
+    from agnav_bringup.graph_config import load_config
+    from agnav_common.bagio import filter_bag
+    from agnav_sim_eval import offline
+    bag = tmp / f"ins_tight_s{seed}"
+    record_raw_run(bag, seed=seed)
+    config = load_config("ins_tight")
+    pipeline, epochs = offline.pipeline_for(config), []
+
+    def observe(topic, msg):     # mode, DDs and integer fix after each rover epoch
+        if topic == "/gnss/raw_observations":
+            sw = pipeline.backend.ekf
+            sol = sw.last_solution if sw.mode == "tight" else None
+            epochs.append((msg.header.stamp.sec - START_EPOCH_S, sw.mode, sol is not None and sol.fixed,
+                           0 if sol is None else sol.n_dd))
+    start = time.perf_counter()
+    states, _ = offline.replay(config, bag, pipeline, observe)
+    seconds = time.perf_counter() - start
+    # the ins comparison ends with the 3-satellite window: InsEkf's re-initialisation when the fixes return after
+    # 75 s without any raises NameError `hv` (ins/ekf.py _update since 5bb5ba7)
+    end_ns = int((START_EPOCH_S + windows()["three_sat"][1] + 1.0) * 1e9)
+    filter_bag(bag, tmp / f"ins_s{seed}", lambda topic, t_ns: t_ns <= end_ns)
+    loose, loose_pipeline = offline.replay(load_config("ins"), tmp / f"ins_s{seed}")
+    (t, tight), (tl, lerr) = (_horizontal_cm(st, p.plane, bag) for st, p in ((states, pipeline),
+                                                                               (loose, loose_pipeline)))
+    w, ep = windows(), np.array([(e[0], e[2], e[3]) for e in epochs])
+    three, flt = (w[k] for k in ("three_sat", "float"))
+
+    def inside(times, win):
+        return (times >= win[0]) & (times <= win[1])
+    after = ep[(ep[:, 0] >= w["outage"][1]) & (ep[:, 1] > 0)]
+    transitions = pipeline.backend.ekf.transitions
+    out = {"three_sat_end_err_cm": round(float(tight[inside(t, three)][-1]), 2),
+           "three_sat_loose_end_err_cm": round(float(lerr[inside(tl, three)][-1]), 2),
+           "three_sat_max_err_cm": round(float(tight[inside(t, three)].max()), 2),
+           "three_sat_dd_per_epoch": round(float(np.mean(ep[inside(ep[:, 0], three), 2])), 1),
+           "float_rms_cm": round(float(np.sqrt(np.mean(tight[inside(t, flt)] ** 2))), 2),
+           "float_loose_rms_cm": round(float(np.sqrt(np.mean(lerr[inside(tl, flt)] ** 2))), 2),
+           "float_max_err_cm": round(float(tight[inside(t, flt)].max()), 2),
+           "float_fix_rate": round(float(np.mean(ep[inside(ep[:, 0], flt), 1])), 3),
+           "switch_max_jump_sigma": round(max(tr["jump_sigma"] for tr in transitions), 2),
+           "switch_transitions": [{"t": round(float(tr["t"] - START_EPOCH_S), 2), "from": tr["from"], "to": tr["to"],
+                                   "jump_sigma": round(tr["jump_sigma"], 2), "jump_cm": _cm(tr["jump_m"])}
+                                  for tr in transitions],
+           "refix_time_s": round(float(after[0, 0] - w["outage"][1]), 2) if len(after) else None,
+           "pipeline_replay_x_real_time": round(float(t[-1] - t[0]) / seconds, 1)}
+    if graph:
+        out["graph_replay_x_real_time"] = graph_speed(bag)
+    return out
 
 
-def measure(data=DATA):
+def graph_speed(bag):
+    """x real time of `agnav run ins_tight` on `bag` (one process, deterministic replay, start-up included)."""
+    import subprocess
+    import sys
+    from agnav_sim_eval.evaluate import read_bag
+    imu = read_bag(bag, ["/imu/data_raw"])["/imu/data_raw"]
+    start = time.perf_counter()
+    subprocess.run([sys.executable, "-m", "agnav_bringup.cli", "run", "ins_tight", "--bag", str(bag), "--quiet",
+                    "--no-eval"], check=True, capture_output=True,
+                   env=dict(os.environ, ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST"))
+    return round((imu[-1][0] - imu[0][0]) / (time.perf_counter() - start), 1)
+
+
+def simulated(seeds=SIM_SEEDS):
+    """Per-seed keys of the simulated switching runs and, at the top level, the worst seed's value of each."""
+    import tempfile
+    with tempfile.TemporaryDirectory() as tmp:
+        runs = {seed: simulated_seed(seed, Path(tmp), graph=k == 0) for k, seed in enumerate(seeds)}
+    worst = {key: max(r[key] for r in runs.values()) for key in PER_SEED_MAX}
+    worst["refix_time_s"] = max((r["refix_time_s"] for r in runs.values() if r["refix_time_s"] is not None),
+                                default=None)
+    worst["pipeline_replay_x_real_time"] = min(r["pipeline_replay_x_real_time"] for r in runs.values())
+    return {"sim_seeds": list(seeds), "sim_per_seed": runs, **worst,
+            "graph_replay_x_real_time": runs[seeds[0]]["graph_replay_x_real_time"]}
+
+
+def measure(data=DATA, seeds=SIM_SEEDS):
     pairs, nav, base, rover = load(data)
     kin, kin_ms = _timed(pairs, nav, base, BaselineConfig(dynamics="kinematic"))
     sta, _ = _timed(pairs, nav, base, BaselineConfig(dynamics="static", fix=False))
@@ -212,7 +278,7 @@ def measure(data=DATA):
                         "static_fix_rate": round(len(old_kin[0]) / len(kin), 4),
                         "static_fixed_baseline_err_cm": _cm(old_kin[0].max()) if old_kin[0].size else None},
         **walk_doppler(),
-        **simulated(),
+        **simulated(seeds),
         "load_average_1min": round(os.getloadavg()[0], 2),
     }
 
@@ -259,35 +325,45 @@ def report(res):
         "Single-epoch Doppler velocity is unfiltered: while walking, per-satellite range-rate residuals against the "
         "receiver's velocity reach 0.2–0.8 m/s (handheld antenna), the receiver's own velocity agrees with its "
         "position differences to ~9 cm/s per axis.", "",
-        f"Tightly vs loosely coupled GNSS/INS, simulated (mems_field seed {res['sim_seed']}, 2 m/s, consumer MEMS "
-        "IMU, simulated code/phase/Doppler from base.nav orbits, 1 km baseline, 1 Hz; horizontal antenna errors "
-        "in the 60 s window; method in the docstrings of this bench and `sim/gnss_raw_sim_runs.py`):", "",
-        "| window | tightly coupled | loosely coupled, same run | goal |", "|---|---|---|---|",
-        f"| 3 GPS satellites above the mask ({res['three_sat_dd_per_epoch']:g} DDs), error at its end | "
-        f"{res['three_sat_end_err_cm']} cm (max {res['three_sat_max_err_cm']} cm) | "
-        f"{res['three_sat_loose_end_err_cm']} cm (no receiver fix: INS + non-holonomic constraint) | ≤ 10 cm |",
-        f"| RTK float after a full loss of lock, tree line over half the sky: RMS | {res['float_rms_cm']} cm "
-        f"(max {res['float_max_err_cm']} cm, float only) | {res['float_loose_rms_cm']} cm (max "
-        f"{res['float_loose_max_err_cm']} cm, on the receiver's float fixes) | ≤ 5 cm |", "",
-        f"Tight filter outside the windows: fix rate {res['sim_fix_rate_outside_windows']:.1%} (LAMBDA, ratio ≥ 3, "
-        f"fix and hold); {res['sim_tight_ms_per_epoch']} ms per epoch (satellite states, DDs, update, fixing).", "",
-        "Mode switching (Table 5-8-1, `gnss_raw/switching.py`), same simulated run: RTK fixed 0–60 s (loose), "
-        "receiver float 60–90 s, 3 GPS satellites 90–120 s, full outage 120–140 s, sky back with the receiver "
-        "float 140–170 s, RTK fixed after. Output jump = the antenna output's change beyond dead reckoning in "
-        "the 3 s after a switch, over the larger σ along it of the outputs before and after:", "",
+        "Switching GNSS/INS through the shipped pipeline (`offline.pipeline_for('ins_tight')`, what "
+        "`agnav run ins_tight` publishes; the loosely coupled / INS-only comparison is `pipeline_for('ins')` on the "
+        "same bag). Simulated runs (`sim/gnss_raw_sim_bag.py`: mems_field, 2 m/s, consumer MEMS IMU, rover + base "
+        "code/phase/Doppler from base.nav orbits, 1 km baseline, 1 Hz, LNAV / I/NAV frames on /gnss/nav_data): RTK "
+        "fixed until 60 s; 2 s without satellites, then RTK float under a tree line (west half of the sky below 45°) "
+        "60–120 s; 3 GPS satellites 120–180 s (no receiver fix); nothing 180–195 s; the sky back with the receiver "
+        "float 195–210 s; RTK fixed after. Horizontal base_link errors against the truth at the IMU rate; seeds "
+        f"{res['sim_seeds']} (tuning used seeds < 1000):", "",
+        "| seed | 3 sat: end (max) [cm] | 3 sat, ins: end [cm] | float: RMS (max) [cm] | float, ins: RMS [cm] | "
+        "float fix rate | max switch jump [σ] | re-fix [s] |", "|---|---|---|---|---|---|---|---|",
+        *[f"| {seed} | {r['three_sat_end_err_cm']} ({r['three_sat_max_err_cm']}) | {r['three_sat_loose_end_err_cm']} "
+          f"| {r['float_rms_cm']} ({r['float_max_err_cm']}) | {r['float_loose_rms_cm']} | {r['float_fix_rate']:.0%} "
+          f"| {r['switch_max_jump_sigma']} | {r['refix_time_s']} |" for seed, r in res["sim_per_seed"].items()],
+        f"| **worst** | **{res['three_sat_end_err_cm']}** ({res['three_sat_max_err_cm']}) | "
+        f"{res['three_sat_loose_end_err_cm']} | **{res['float_rms_cm']}** ({res['float_max_err_cm']}) | "
+        f"{res['float_loose_rms_cm']} | | **{res['switch_max_jump_sigma']}** | {res['refix_time_s']} |",
+        "| goal | ≤ 10 | | ≤ 5 | | | ≤ 3 | reported |", "",
+        "The tight filter fixes integers where LAMBDA's ratio test allows even while the receiver reports float "
+        "(its own step beyond the report's float-only §7.7); the 3-satellite window has "
+        f"{res['sim_per_seed'][res['sim_seeds'][0]]['three_sat_dd_per_epoch']:g} DDs per epoch. Output jump = the "
+        "output's change beyond dead reckoning in the 3 s after a switch, over the larger σ along it before and "
+        "after. Re-fix = from the end of the outage to the tight filter's first integer fix. Transitions of seed "
+        f"{res['sim_seeds'][0]}:", "",
         "| t [s] | transition | max jump [σ] | that jump [cm] |", "|---|---|---|---|",
         *[f"| {tr['t']} | {tr['from']} → {tr['to']} | {tr['jump_sigma']} | {tr['jump_cm']} |"
-          for tr in res["switch_transitions"]], "",
-        f"Largest: {res['switch_max_jump_sigma']} σ (goal ≤ 3). Time to re-fix after the 20 s outage (tight "
-        f"filter's first integer fix after the sky returns): {res['refix_time_s']} s.", ""])
+          for tr in res["sim_per_seed"][res["sim_seeds"][0]]["switch_transitions"]], "",
+        f"Replay speed: `agnav run ins_tight` (one process, deterministic, start-up included) "
+        f"{res['graph_replay_x_real_time']}× real time; the offline pipeline alone at least "
+        f"{res['pipeline_replay_x_real_time']}× (load {res['load_average_1min']}, 2 cores).", ""])
 
 
 def main(argv=None):
     ap = argparse.ArgumentParser(prog="agnav bench ins_tight", description=__doc__.splitlines()[0])
     ap.add_argument("--json", action="store_true", help="print one JSON object last")
+    ap.add_argument("--seeds", type=lambda v: tuple(int(x) for x in v.split(",")), default=SIM_SEEDS,
+                    help="simulation seeds, comma-separated (default: the reported 1000-1004)")
     docs_option(ap, "ins_tight.md")
     args = ap.parse_args(argv)
-    res = measure()
+    res = measure(seeds=args.seeds)
     print(report(res))
     if args.write_docs:
         write_docs(args.write_docs, report(res))

@@ -8,11 +8,12 @@ cycle slips without LLI) on the drivers' topics: /gnss/raw_observations and /gns
 rover epochs are logged at their epoch (base first). Sky and receiver per window (`windows`, back to back):
   fixed      – RTK fixed fixes (the simulator's) until `start`, and again after `refloat`;
   float      – every satellite hidden for 2 s before it (all lose lock), then a tree line hides the west half of the
-               sky below 45°; the receiver is in RTK float: its fixes are a float DD solution (gnss_raw_sim_runs.
-               float_fixes, restarted at the window) with Doppler velocities, /gnss/status RTK_FLOAT;
+               sky below 45°; the receiver is in RTK float (/gnss/status RTK_FLOAT): its fixes are the simulator's
+               plus a float solution's slowly wandering error (first-order Gauss-Markov, FLOAT_SIGMA per axis
+               horizontally, twice that vertically, FLOAT_TAU, a fresh draw at each window) with that covariance;
   three_sat  – only the 3 highest GPS satellites above 15°: no receiver fix;
   outage     – no satellite, no fix;
-  refloat    – the sky back, the receiver float again (its own float solution from a restart).
+  refloat    – the sky back, the receiver float again (a fresh float error).
 """
 import shutil
 from dataclasses import replace
@@ -20,6 +21,7 @@ from pathlib import Path
 
 import numpy as np
 from agnav_common.bagio import typestore
+from agnav_common.geodesy import LocalTangentPlane
 from agnav_common.qos import LATCHED_QOS, bag_profiles
 from rosbags.rosbag2 import Writer
 from rosbags.rosbag2.enums import CompressionFormat, CompressionMode, StoragePlugin
@@ -28,7 +30,6 @@ from agnav_fusion.gnss_raw.rinex import read_nav
 
 from .gnss_raw_sim import RawSimConfig, SkyMask, antenna_truth, enu_frame, simulate_raw
 from .gnss_raw_sim_nav import UBX_GNSS, nav_frames
-from .gnss_raw_sim_runs import float_fixes
 from .messages import MESSAGE_TYPES, START_EPOCH_S
 from .run import simulate
 
@@ -39,6 +40,8 @@ RAW_TYPES = {"/gnss/raw_observations": "agnav_msgs/msg/GnssObservations",
 RECEIVER = ("/gnss/fix", "/gnss/vel", "/gnss/status")
 FIX_RTK_FLOAT = 3          # agnav_msgs/GnssStatus
 BLOCKAGE_S = 2.0
+FLOAT_SIGMA = 0.3          # m, horizontal per axis, of the receiver's RTK float error
+FLOAT_TAU = 30.0           # s, its correlation time
 
 
 def windows(start=60.0, float_s=60.0, three_sat_s=60.0, outage_s=15.0, refloat_s=15.0):
@@ -48,6 +51,13 @@ def windows(start=60.0, float_s=60.0, three_sat_s=60.0, outage_s=15.0, refloat_s
                          ("refloat", refloat_s)):
         out[name], t = (t, t + length), t + length
     return out
+
+
+def receiver_state(t, w):
+    """fixed | float | none: the receiver at simulation time t."""
+    if w["float"][0] - BLOCKAGE_S <= t < w["float"][0] or w["three_sat"][0] <= t < w["outage"][1]:
+        return "none"
+    return "float" if any(w[k][0] <= t < w[k][1] for k in ("float", "refloat")) else "fixed"
 
 
 def sky(w, seed):
@@ -102,26 +112,25 @@ class _Messages:
         return self.T["geometry_msgs/msg/PointStamped"](header=self.header(0.0, "ecef"), point=point)
 
 
-def _float_rows(rows, templates, fixes):
-    """Receiver rows of float fixes (arrival, GnssSample): the simulator's messages with the float values."""
-    fix, vel, status = templates
-    for arrival, g in fixes:
-        lat, lon = np.degrees(g.lat), np.degrees(g.lon)
-        header = replace(fix.header, stamp=_stamp_of(fix.header, g.t))
-        rows.append((arrival, "/gnss/fix", replace(fix, header=header, latitude=lat, longitude=lon, altitude=g.alt,
-                                                   position_covariance=np.asarray(g.pos_cov_enu).ravel())))
-        if g.vel_enu is not None:
-            cov = np.array(vel.twist.covariance).reshape(6, 6)
-            cov[:3, :3] = g.vel_cov_enu
-            v = replace(vel.twist.twist.linear, x=float(g.vel_enu[0]), y=float(g.vel_enu[1]), z=float(g.vel_enu[2]))
-            twist = replace(vel.twist, twist=replace(vel.twist.twist, linear=v), covariance=cov.ravel())
-            rows.append((arrival, "/gnss/vel", replace(vel, header=header, twist=twist)))
-        rows.append((arrival, "/gnss/status", replace(status, header=header, fix_type=FIX_RTK_FLOAT)))
+class _FloatReceiver:
+    """Receiver messages of an RTK float solution: the simulator's fix moved by a Gauss-Markov error (ENU m)."""
 
+    def __init__(self, datum, rng):
+        self.plane, self.rng = LocalTangentPlane(*datum), rng
+        self.sigma = np.array([FLOAT_SIGMA, FLOAT_SIGMA, 2.0 * FLOAT_SIGMA])
+        self.err, self.t = None, None
 
-def _stamp_of(header, t):
-    ns = int(round((START_EPOCH_S + t) * 1e9))
-    return replace(header.stamp, sec=ns // 1_000_000_000, nanosec=ns % 1_000_000_000)
+    def fix(self, msg, t):
+        if self.err is None or t - self.t > 1.0:          # a new float window: a fresh solution
+            self.err = self.rng.normal(0.0, self.sigma)
+        else:
+            phi = np.exp(-(t - self.t) / FLOAT_TAU)
+            self.err = phi * self.err + np.sqrt(1.0 - phi * phi) * self.rng.normal(0.0, self.sigma)
+        self.t = t
+        lat, lon, alt = self.plane.to_geodetic(*(np.array(self.plane.to_enu(msg.latitude, msg.longitude,
+                                                                             msg.altitude)) + self.err))
+        return replace(msg, latitude=float(lat), longitude=float(lon), altitude=float(alt),
+                       position_covariance=np.diag(self.sigma ** 2).ravel())
 
 
 def raw_run_rows(seed=1, w=None, duration=None, nav=None):
@@ -133,18 +142,20 @@ def raw_run_rows(seed=1, w=None, duration=None, nav=None):
     t, pos, vel = antenna_truth(run)
     keep = t <= end
     raw = simulate_raw(t[keep], pos[keep], vel[keep], nav, *enu_frame(run.datum), sky(w, seed))
-    blocked = (w["float"][0] - BLOCKAGE_S, w["refloat"][1])
-    rows, templates = [], {}
+    floating = _FloatReceiver(run.datum, np.random.default_rng(seed))
+    rows = []
     for when, topic, msg in run.messages:
         if when > end or topic == "/inclinometer":
             continue
         if topic in RECEIVER:
-            templates.setdefault(topic, msg)
-            if blocked[0] <= _seconds(msg.header) < blocked[1]:
+            state = receiver_state(_seconds(msg.header), w)
+            if state == "none":
                 continue
+            if state == "float" and topic == "/gnss/fix":
+                msg = floating.fix(msg, _seconds(msg.header))
+            elif state == "float" and topic == "/gnss/status":
+                msg = replace(msg, fix_type=FIX_RTK_FLOAT)
         rows.append((when, topic, msg))
-    for name in ("float", "refloat"):
-        _float_rows(rows, [templates[k] for k in RECEIVER], float_fixes(raw, nav, w[name][0], w[name]))
     store = typestore()
     m = _Messages(store.types)
     rows += [(0.0, "/gnss/base/position", m.base_position(raw.base_pos))]
