@@ -280,3 +280,80 @@ def test_ekf_base_link_state_equals_the_solution_path():
     for name in ("position", "rpy", "pose_cov", "velocity", "rates", "twist_cov"):
         assert np.array_equal(getattr(b, name), getattr(want, name)), name
     assert (crab, crab_var) == (sol.crab, sol.crab_var) and b.checks == want.checks
+
+
+def from_dcm_ref(c):
+    tr = np.trace(c)
+    i = int(np.argmax([tr, c[0, 0], c[1, 1], c[2, 2]]))
+    if i == 0:
+        s = 2.0 * math.sqrt(1.0 + tr)
+        q = [s / 4, (c[2, 1] - c[1, 2]) / s, (c[0, 2] - c[2, 0]) / s, (c[1, 0] - c[0, 1]) / s]
+    elif i == 1:
+        s = 2.0 * math.sqrt(1.0 + c[0, 0] - c[1, 1] - c[2, 2])
+        q = [(c[2, 1] - c[1, 2]) / s, s / 4, (c[0, 1] + c[1, 0]) / s, (c[0, 2] + c[2, 0]) / s]
+    elif i == 2:
+        s = 2.0 * math.sqrt(1.0 - c[0, 0] + c[1, 1] - c[2, 2])
+        q = [(c[0, 2] - c[2, 0]) / s, (c[0, 1] + c[1, 0]) / s, s / 4, (c[1, 2] + c[2, 1]) / s]
+    else:
+        s = 2.0 * math.sqrt(1.0 - c[0, 0] - c[1, 1] + c[2, 2])
+        q = [(c[1, 0] - c[0, 1]) / s, (c[0, 2] + c[2, 0]) / s, (c[1, 2] + c[2, 1]) / s, s / 4]
+    q = np.array(q)
+    return q / np.linalg.norm(q) * (1.0 if q[0] >= 0 else -1.0)
+
+
+def apply_ref(mech, x):
+    from agnav_fusion.ins.feedback import azimuth_error
+    from agnav_fusion.ins.mechanization import orthonormalize
+    s = mech.state
+    d_alpha = azimuth_error(x[em.GAMMA], x[em.BETA])
+    ca, sa = math.cos(d_alpha), math.sin(d_alpha)
+    mz_t = np.array([[ca, -sa, 0.0], [sa, ca, 0.0], [0.0, 0.0, 1.0]])
+    s.c_ec = orthonormalize((np.eye(3) + skew([x[em.RX], x[em.RY], 0.0])) @ mz_t @ s.c_ec)
+    s.h -= x[em.H]
+    s.v = s.v - x[list(em.V3)]
+    s.q = from_dcm_ref(rotation_ref(np.array([x[em.TX], -x[em.TY], 0.0])) @ to_dcm_ref(s.q))
+    mech.accel_bias = mech.accel_bias + x[em.BA]
+    mech.gyro_bias = mech.gyro_bias + x[em.BG]
+    return d_alpha
+
+
+def test_from_dcm_matches_the_matrix_form():
+    for k in range(400):
+        c = to_dcm_ref(random_quaternion())
+        if k % 4:       # every Shepperd branch: turn by pi about x, y or z
+            c = c @ np.diag([[1, 1, 1], [1, -1, -1], [-1, 1, -1], [-1, -1, 1]][k % 4])
+        want = from_dcm_ref(c)
+        np.testing.assert_allclose(quaternion.from_dcm(c), want, rtol=0, atol=1e-15)
+        np.testing.assert_allclose(quaternion.from_dcm(tuple(map(tuple, c))), want, rtol=0, atol=1e-15)
+
+
+@pytest.mark.parametrize("trial", range(10))
+def test_feedback_and_azimuth_reset_match_the_matrix_form(trial):
+    from agnav_fusion.ins import feedback
+    st = random_state()
+    x = RNG.normal(0, 1e-5, 17)
+    x[em.GAMMA], x[em.BETA] = RNG.normal(0, 0.3), RNG.normal(0, 0.05)
+    fast, ref = (Mechanization(replace(st, c_ec=st.c_ec.copy(), v=st.v.copy(), q=st.q.copy()),
+                               np.full(3, 0.01), np.full(3, 1e-4)) for _ in range(2))
+    assert feedback.apply(fast, x) == apply_ref(ref, x)
+    for name in ("c_ec", "v", "q"):
+        np.testing.assert_allclose(getattr(fast.state, name), getattr(ref.state, name), rtol=0, atol=2e-15)
+    assert fast.state.h == ref.state.h
+    np.testing.assert_array_equal(fast.accel_bias, ref.accel_bias)
+    np.testing.assert_array_equal(fast.gyro_bias, ref.gyro_bias)
+    p = random_spd(17)
+    j = feedback.azimuth_reset_jacobian(x[em.GAMMA], x[em.BETA], 17)
+    np.testing.assert_allclose(feedback.azimuth_reset(p, x[em.GAMMA], x[em.BETA]), j @ p @ j.T, rtol=1e-14,
+                               atol=1e-18)
+
+
+def test_fast_plane_to_geodetic_matches_pymap3d():
+    from agnav_fusion.ins.frames import FastPlane
+    for lat0, lon0, alt0 in ((43.0, 141.0, 50.0), (-33.9, 18.4, 10.0), (0.0, 0.0, 0.0), (89.9, -120.0, 3000.0)):
+        plane = LocalTangentPlane(lat0, lon0, alt0)
+        fast = FastPlane(plane)
+        for east, north, up in RNG.normal(0, 2000, (30, 3)):
+            got, want = fast.to_geodetic(east, north, up), plane.to_geodetic(east, north, up)
+            np.testing.assert_allclose(got[:2], [float(want[0]), float(want[1])], rtol=0, atol=1e-12)
+            assert got[2] == pytest.approx(float(want[2]), abs=1e-7)
+            np.testing.assert_allclose(fast.to_enu(*got), (east, north, up), atol=1e-6)

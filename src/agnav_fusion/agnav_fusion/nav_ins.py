@@ -123,7 +123,7 @@ class InsNavigation:
         if cov is None or self.ekf is None or self.plane is None:
             return False
         self.gnss_overdue.arrived(t, self._imu_clock())
-        lat, lon, alt = self.plane.to_geodetic(*antenna_enu)
+        lat, lon, alt = self.enu_plane.to_geodetic(*(float(v) for v in antenna_enu))
         g = GnssSample(t, math.radians(lat), math.radians(lon), float(alt), cov)
         if vel_enu is not None and self.guard.accept("vel", t, vel_enu, ref=self._imu_clock()):
             if vel_cov is None:

@@ -205,8 +205,7 @@ class InsEkf:
         feedback.apply(self.mech, x[:em.N_STATES])
         if self.nhc is not None:
             self.crab -= x[CRAB]
-        j = feedback.azimuth_reset_jacobian(x[em.GAMMA], x[em.BETA], len(p))
-        p = j @ p @ j.T
+        p = feedback.azimuth_reset(p, x[em.GAMMA], x[em.BETA])
         p[em.BETA, em.BETA] = 0.5 * p[em.GAMMA, em.GAMMA] ** 2 + 1e-12
         return 0.5 * (p + p.T)
 

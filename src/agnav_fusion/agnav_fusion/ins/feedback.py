@@ -4,7 +4,8 @@ import math
 import numpy as np
 
 from . import error_model as em, quaternion
-from .mechanization import orthonormalize, rotation, skew
+from .mechanization import orthonormalize, rotation_rows
+from .solution import mat3
 
 
 def azimuth_error(gamma, beta):
@@ -13,19 +14,24 @@ def azimuth_error(gamma, beta):
 
 
 def apply(mech, x):
-    """Feed the error estimate x back into the mechanization (§7.11 steps 1–5); returns δα."""
+    """Feed the error estimate x back into the mechanization (§7.11 steps 1–5); returns δα. (3x3 products on
+    Python floats; the matrix form is in test/ins/test_scalar_paths.py.)"""
     s = mech.state
+    x = x[:em.N_STATES].tolist() if isinstance(x, np.ndarray) else [float(v) for v in x[:em.N_STATES]]
+    rx, ry = x[em.RX], x[em.RY]
     d_alpha = azimuth_error(x[em.GAMMA], x[em.BETA])
-    # frame: C_E^C <- (I + [δr x]) M_z(-δα) C_E^C
+    # frame: C_E^C <- (I + [δr x]) M_z(-δα) C_E^C, δr = (δr_x, δr_y, 0)
     ca, sa = math.cos(d_alpha), math.sin(d_alpha)
-    mz_t = np.array([[ca, -sa, 0.0], [sa, ca, 0.0], [0.0, 0.0, 1.0]])
-    s.c_ec = orthonormalize((np.eye(3) + skew([x[em.RX], x[em.RY], 0.0])) @ mz_t @ s.c_ec)
+    m = ((ca, -sa, ry), (sa, ca, -rx), (-ry * ca + rx * sa, ry * sa + rx * ca, 1.0))
+    s.c_ec = orthonormalize(np.array(mat3(m, s.c_ec.tolist())))
     s.h -= x[em.H]
-    s.v = s.v - x[list(em.V3)]
+    v0, v1, v2 = s.v.tolist()
+    s.v = np.array((v0 - x[em.VX], v1 - x[em.VY], v2 - x[em.VZ]))
     # attitude: C_B^Cbar <- (I + [(T δθ) x]) C_B^Cbar
-    s.q = quaternion.from_dcm(rotation([x[em.TX], -x[em.TY], 0.0]) @ s.c_b_cbar())
-    mech.accel_bias = mech.accel_bias + x[em.BA]
-    mech.gyro_bias = mech.gyro_bias + x[em.BG]
+    s.q = quaternion.from_dcm(mat3(rotation_rows(x[em.TX], -x[em.TY], 0.0), quaternion.dcm_rows(s.q.tolist())))
+    ba, bg = em.BA.start, em.BG.start
+    mech.accel_bias = mech.accel_bias + x[ba:ba + 3]
+    mech.gyro_bias = mech.gyro_bias + x[bg:bg + 3]
     return d_alpha
 
 
@@ -33,8 +39,23 @@ def azimuth_reset_jacobian(gamma, beta, n_states):
     """J of the covariance reset after moving δα̂ into α: the new γ is the residual azimuth error
     (linearised atan2), the new β is second order and dropped."""
     j = np.eye(n_states)
-    den = max(gamma * gamma + (1.0 - beta) ** 2, 0.25)   # far off the unit circle: bounded gain
-    j[em.GAMMA, em.GAMMA] = (1.0 - beta) / den
-    j[em.GAMMA, em.BETA] = gamma / den
+    j[em.GAMMA, em.GAMMA], j[em.GAMMA, em.BETA] = _reset_gains(gamma, beta)
     j[em.BETA, :] = 0.0
     return j
+
+
+def _reset_gains(gamma, beta):
+    den = max(gamma * gamma + (1.0 - beta) ** 2, 0.25)   # far off the unit circle: bounded gain
+    return (1.0 - beta) / den, gamma / den
+
+
+def azimuth_reset(p, gamma, beta):
+    """J P Jᵀ with J = azimuth_reset_jacobian (a new array): only the γ and β rows and columns change."""
+    jgg, jgb = _reset_gains(float(gamma), float(beta))
+    g, b = em.GAMMA, em.BETA
+    p = p.copy()
+    p[g] = jgg * p[g] + jgb * p[b]
+    p[b] = 0.0
+    p[:, g] = jgg * p[:, g] + jgb * p[:, b]
+    p[:, b] = 0.0
+    return p

@@ -76,7 +76,8 @@ class FastPlane:
     """LocalTangentPlane.to_enu for one point in plain floats: pymap3d's WGS-84 formulas (geodetic -> ECEF, the
     difference to the datum's -> ENU) without its per-call overhead (the INS converts every sample)."""
 
-    A2, B_A2 = 6378137.0 ** 2, (6356752.31424518 / 6378137.0) ** 2   # pymap3d's wgs84 semi-axes
+    A, B = 6378137.0, 6356752.31424518                                # pymap3d's wgs84 semi-axes
+    A2, B_A2 = A ** 2, (B / A) ** 2
 
     def __init__(self, plane):
         lat0, lon0 = math.radians(plane.lat_deg), math.radians(plane.lon_deg)
@@ -88,6 +89,33 @@ class FastPlane:
         cl, sl = math.cos(lat), math.sin(lat)
         n = cls.A2 / math.hypot(6378137.0 * cl, 6356752.31424518 * sl)
         return (n + alt) * cl * math.cos(lon), (n + alt) * cl * math.sin(lon), (n * cls.B_A2 + alt) * sl
+
+    def to_geodetic(self, east, north, up):
+        """LocalTangentPlane.to_geodetic of one point (deg, deg, m): pymap3d's enu2ecef and its closed-form
+        ecef2geodetic (You 2000) on floats."""
+        t, w = self.cl * up - self.sl * north, self.sl * up + self.cl * north
+        x = self.origin[0] + (self.co * t - self.so * east)
+        y = self.origin[1] + (self.so * t + self.co * east)
+        z = self.origin[2] + w
+        a, b = self.A, self.B
+        r, e2 = math.sqrt(x * x + y * y + z * z), a * a - b * b
+        e = math.sqrt(e2)
+        u = math.sqrt(0.5 * (r * r - e * e) + 0.5 * math.hypot(r * r - e * e, 2 * e * z))
+        hxy, hue = math.hypot(x, y), math.hypot(u, e)
+        if math.isclose(u, 0.0, abs_tol=1e-8) or math.isclose(hxy, 0.0, abs_tol=1e-8):    # numpy.isclose's atol
+            beta = 0.0 if math.isclose(z, 0.0, abs_tol=1e-8) else math.copysign(math.pi / 2, z)
+        else:
+            beta = math.atan(hue / u * z / hxy)
+            beta += ((b * u - a * hue + e * e) * math.sin(beta)) / (a * hue * 1 / math.cos(beta) - e * e * math.cos(beta))
+        lat = math.atan(a / b * math.tan(beta))
+        lim = math.pi / 2 - 2.220446049250313e-16
+        cos_beta = 0.0 if abs(beta) >= lim else math.cos(beta)
+        if abs(beta) >= lim:
+            lat = math.copysign(math.pi / 2, beta)
+        alt = math.hypot(z - b * math.sin(beta), hxy - a * cos_beta)
+        if x * x / a ** 2 + y * y / a ** 2 + z * z / b ** 2 < 1:     # inside the ellipsoid
+            alt = -alt
+        return math.degrees(lat), math.degrees(math.atan2(y, x)), alt
 
     def to_enu(self, lat_deg, lon_deg, alt_m):
         x, y, z = self._ecef(math.radians(lat_deg), math.radians(lon_deg), alt_m)

@@ -8,6 +8,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from agnav_common.frames import cross
 
 from . import earth, error_model as em
 from .lever_arm import antenna_to_imu_position, lever_velocity
@@ -97,7 +98,7 @@ class GnssPosition:
         dd = np.zeros((3, n_states))
         dd[:2, em.GAMMA] = d[1], -d[0]
         dd[:2, em.BETA] = -d[:2]
-        dd[:, em.TX], dd[:, em.TY] = np.cross(d, cn[:, 0]), -np.cross(d, cn[:, 1])
+        dd[:, em.TX], dd[:, em.TY] = cross(d, cn[:, 0]), -cross(d, cn[:, 1])
         scale = np.diag([1.0 / (rn + snap.h), 1.0 / (rm + snap.h)])
         h[:2] += a.T @ scale @ dd[[1, 0]]
         h[2] -= dd[2]
@@ -127,7 +128,7 @@ class GnssVelocity:
         h[0, [em.VX, em.GAMMA, em.BETA]] = 1.0, -va[1], -va[0]
         h[1, [em.VY, em.GAMMA, em.BETA]] = 1.0, va[0], -va[1]
         h[2, em.VZ] = 1.0
-        h[:, em.TX], h[:, em.TY] = T @ np.cross(u, [1.0, 0.0, 0.0]), -T @ np.cross(u, [0.0, 1.0, 0.0])
+        h[:, em.TX], h[:, em.TY] = T @ cross(u, (1.0, 0.0, 0.0)), -T @ cross(u, (0.0, 1.0, 0.0))
         h[:, em.BG] = -T @ c_cbar_ned(alpha).T @ snap.c_b_ned @ skew(self.lever)    # ω = gyro - bias
         cov = ENU_TO_NED @ gnss.vel_cov_enu @ ENU_TO_NED.T
         return Linearized(self.name, m @ snap.v_ned - va + T @ u, h, m @ cov @ m.T)

@@ -27,24 +27,26 @@ def dcm_rows(q):
 
 
 def from_dcm(c):
-    """Unit quaternion of a rotation matrix (Shepperd's method)."""
-    tr = c[0, 0] + c[1, 1] + c[2, 2]
-    cand = [tr, c[0, 0], c[1, 1], c[2, 2]]
-    i = int(np.argmax(cand))
+    """Unit quaternion of a rotation matrix (Shepperd's method); c: array or 3x3 row tuples."""
+    (c00, c01, c02), (c10, c11, c12), (c20, c21, c22) = c.tolist() if isinstance(c, np.ndarray) else c
+    tr = c00 + c11 + c22
+    cand = [tr, c00, c11, c22]
+    i = cand.index(max(cand))
     if i == 0:
         s = 2.0 * math.sqrt(1.0 + tr)
-        q = [s / 4, (c[2, 1] - c[1, 2]) / s, (c[0, 2] - c[2, 0]) / s, (c[1, 0] - c[0, 1]) / s]
+        q = (s / 4, (c21 - c12) / s, (c02 - c20) / s, (c10 - c01) / s)
     elif i == 1:
-        s = 2.0 * math.sqrt(1.0 + c[0, 0] - c[1, 1] - c[2, 2])
-        q = [(c[2, 1] - c[1, 2]) / s, s / 4, (c[0, 1] + c[1, 0]) / s, (c[0, 2] + c[2, 0]) / s]
+        s = 2.0 * math.sqrt(1.0 + c00 - c11 - c22)
+        q = ((c21 - c12) / s, s / 4, (c01 + c10) / s, (c02 + c20) / s)
     elif i == 2:
-        s = 2.0 * math.sqrt(1.0 - c[0, 0] + c[1, 1] - c[2, 2])
-        q = [(c[0, 2] - c[2, 0]) / s, (c[0, 1] + c[1, 0]) / s, s / 4, (c[1, 2] + c[2, 1]) / s]
+        s = 2.0 * math.sqrt(1.0 - c00 + c11 - c22)
+        q = ((c02 - c20) / s, (c01 + c10) / s, s / 4, (c12 + c21) / s)
     else:
-        s = 2.0 * math.sqrt(1.0 - c[0, 0] - c[1, 1] + c[2, 2])
-        q = [(c[1, 0] - c[0, 1]) / s, (c[0, 2] + c[2, 0]) / s, (c[1, 2] + c[2, 1]) / s, s / 4]
-    q = np.array(q)
-    return q / np.linalg.norm(q) * (1.0 if q[0] >= 0 else -1.0)
+        s = 2.0 * math.sqrt(1.0 - c00 - c11 + c22)
+        q = ((c10 - c01) / s, (c02 + c20) / s, (c12 + c21) / s, s / 4)
+    q0, q1, q2, q3 = q
+    n, sign = math.sqrt(q0 * q0 + q1 * q1 + q2 * q2 + q3 * q3), (1.0 if q0 >= 0 else -1.0)
+    return np.array((q0 / n * sign, q1 / n * sign, q2 / n * sign, q3 / n * sign))
 
 
 def rotate_increment(q, dtheta):
