@@ -12,7 +12,9 @@ from agnav_common.frames import wrap_angle
 
 from .earth import radii
 from .measurements import ENU_TO_NED
-from .solution import congruence3, solution_parts
+from . import error_model as em, quaternion
+from .constraints import CRAB
+from .solution import TWO_PI, congruence3
 
 FLU_TO_FRD = np.diag([1.0, -1.0, -1.0])
 FRD = FLU_TO_FRD.diagonal().copy()   # FLU <-> FRD sign flips: x * FRD == x @ FLU_TO_FRD (per-sample paths)
@@ -133,10 +135,68 @@ def base_link_state(sol, mounts, plane, rate_var=(0.0, 0.0, 0.0)):
 
 
 def ekf_base_link_state(ekf, mounts, plane, rate_var=(0.0, 0.0, 0.0)):
-    """(base_link_state(ekf.solution(), ...), crab, crab variance) of an initialised InsEkf without forming the
-    NavSolution's arrays (once per IMU sample)."""
-    parts = solution_parts(ekf)
-    return _base_link(*parts[:14], mounts, plane, rate_var), parts[14], parts[15]
+    """(base_link_state(ekf.solution(), ...), crab, crab variance) of an initialised InsEkf, once per IMU sample:
+    straight from the filter state on Python floats, without the NavSolution (the same values up to rounding:
+    the twist covariance is rotated from C to the body in one step, T C_B^Cbar^T T, instead of via ENU)."""
+    st, p = ekf.mech.state, ekf.p
+    (e0, e1, e2), (e3, e4, e5), (e6, e7, e8) = st.c_ec.tolist()
+    lat, lon, alpha, h = math.asin(max(-1.0, min(1.0, e8))), math.atan2(e7, e6), math.atan2(-e5, e2), st.h
+    (c0, c1, c2), (c3, c4, c5), (c6, c7, c8) = quaternion.dcm_rows(st.q.tolist())     # C_B^Cbar
+    ca, sa = math.cos(alpha), math.sin(alpha)
+    n0, n1, n2 = ca * c0 + sa * c3, ca * c1 + sa * c4, ca * c2 + sa * c5              # C_B^NED
+    n3, n4, n5 = -sa * c0 + ca * c3, -sa * c1 + ca * c4, -sa * c2 + ca * c5
+    l0, l1, l2 = mounts.lever_imu_frd.tolist()                      # base_link -> IMU; the lever is its negative
+    d0, d1, d2 = n0 * l0 + n1 * l1 + n2 * l2, n3 * l0 + n4 * l1 + n5 * l2, c6 * l0 + c7 * l1 + c8 * l2
+    rm, rn = radii(lat)
+    position = plane.to_enu(math.degrees(lat - d0 / (rm + h)), math.degrees(lon - d1 / ((rn + h) * math.cos(lat))),
+                            h + d2)
+    # body velocity: C^T (v_ned + C (ω x lever)), FLU
+    v0, v1, v2 = st.v.tolist()
+    w0, w1, w2 = ekf.omega_b.tolist()
+    k0, k1, k2 = -(w1 * l2 - w2 * l1), -(w2 * l0 - w0 * l2), -(w0 * l1 - w1 * l0)
+    u0 = ca * v0 - sa * v1 + (n0 * k0 + n1 * k1 + n2 * k2)
+    u1 = -sa * v0 - ca * v1 + (n3 * k0 + n4 * k1 + n5 * k2)
+    u2 = -v2 + (c6 * k0 + c7 * k1 + c8 * k2)
+    velocity = (n0 * u0 + n3 * u1 + c6 * u2, -(n1 * u0 + n4 * u1 + c7 * u2), -(n2 * u0 + n5 * u1 + c8 * u2))
+    # position: A P[:2, :2] A^T (A = c_axes(alpha) (R + h)) + P_hh + the fix's drifting part + the lever turned by
+    # the attitude error, δp = φ x (C l), φ ~ N(0, diag(tilt, tilt, P_γγ)), arm = NED_TO_ENU [C l x], C l = -d
+    big_r = math.sqrt(rm * rn) + h
+    a00, a01, a10, a11 = ca * big_r, -sa * big_r, sa * big_r, ca * big_r
+    (p00, p01), (p10, p11) = p[:2, :2].tolist()
+    b00, b01, b10, b11 = a00 * p00 + a01 * p10, a00 * p01 + a01 * p11, a10 * p00 + a11 * p10, a10 * p01 + a11 * p11
+    (f00, f01, f02), (f10, f11, f12), (f20, f21, f22) = ekf.fix_drift_cov.tolist()
+    tx, ty, txy, tc = p[em.TX, em.TX], p[em.TY, em.TY], p[em.TX, em.TY], p[em.GAMMA, em.GAMMA]
+    ta = 0.5 * (tx + ty) + math.hypot(0.5 * (tx - ty), txy)     # largest: roll and pitch are rotated C-axis tilts
+    s00, s01, s02 = d2 * ta * d2 + d0 * tc * d0, -(d0 * tc * d1), d2 * ta * d1
+    s11, s12, s22 = d2 * ta * d2 + d1 * tc * d1, d2 * ta * d0, d1 * ta * d1 + d0 * ta * d0
+    q00, q11 = f00 + (b00 * a00 + b01 * a01) + s00, f11 + (b10 * a10 + b11 * a11) + s11
+    q22 = f22 + p[em.H, em.H] + s22
+    q01 = ((f01 + (b00 * a10 + b01 * a11) + s01) + (f10 + (b10 * a00 + b11 * a01) + s01)) / 2
+    q02, q12 = ((f02 + s02) + (f20 + s02)) / 2, ((f12 + s12) + (f21 + s12)) / 2
+    # twist: M P_v M^T, M = T C_B^Cbar^T T (C -> body FLU)
+    rx, ry, *_, rz = p[em.VX:em.VZ + 1, em.VX:em.VZ + 1].tolist()      # rows VX, VY, .., VZ
+    (v00, v01, v02), (v10, v11, v12), (v20, v21, v22) = congruence3(
+        ((c0, -c3, -c6), (-c1, c4, c7), (-c2, c5, c8)),
+        ((rx[0], rx[1], rx[-1]), (ry[0], ry[1], ry[-1]), (rz[0], rz[1], rz[-1])))
+    v01, v02, v12 = (v01 + v10) / 2, (v02 + v20) / 2, (v12 + v21) / 2
+    bg = em.BG.start
+    g0, g1, g2 = p[bg, bg] + rate_var[0], p[bg + 1, bg + 1] + rate_var[1], p[bg + 2, bg + 2] + rate_var[2]
+    heading = math.remainder(math.atan2(c3, c0) - alpha, TWO_PI)
+    rpy = (math.atan2(c7, c8), math.asin(max(-1.0, min(1.0, c6))), wrap_angle(math.pi / 2 - heading))
+    rates = (w0, -w1, -w2)
+    total = (sum(position) + sum(rpy) + sum(velocity) + sum(rates) + q00 + q11 + q22 + q01 + q02 + q12 + ta + tc
+             + v00 + v11 + v22 + v01 + v02 + v12 + g0 + g1 + g2)
+    pd = (positive_definite3(((q00, q01, q02), (q01, q11, q12), (q02, q12, q22))) and min(ta, tc) > 0
+          and positive_definite3(((v00, v01, v02), (v01, v11, v12), (v02, v12, v22))) and min(g0, g1, g2) > 0)
+    pose_cov = np.array((q00, q01, q02, 0.0, 0.0, 0.0, q01, q11, q12, 0.0, 0.0, 0.0, q02, q12, q22, 0.0, 0.0, 0.0,
+                         0.0, 0.0, 0.0, ta, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, ta, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, tc)
+                        ).reshape(6, 6)
+    twist_cov = np.array((v00, v01, v02, 0.0, 0.0, 0.0, v01, v11, v12, 0.0, 0.0, 0.0, v02, v12, v22, 0.0, 0.0, 0.0,
+                          0.0, 0.0, 0.0, g0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, g1, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, g2)
+                         ).reshape(6, 6)
+    state = BaseLinkState(ekf.t, np.array(position, dtype=float), np.array(rpy), pose_cov, np.array(velocity),
+                          np.array(rates), twist_cov, (math.isfinite(total), pd))
+    return state, ekf.crab, p[CRAB, CRAB] if ekf.nhc is not None else math.inf
 
 
 def _base_link(t, lat0, lon0, h0, v_ned, roll, pitch, heading, omega_b, c, pos_cov, vel_cov, att_var, gyro_bias_var,
