@@ -359,3 +359,14 @@ def test_fast_plane_to_geodetic_matches_pymap3d():
             np.testing.assert_allclose(got[:2], [float(want[0]), float(want[1])], rtol=0, atol=1e-12)
             assert got[2] == pytest.approx(float(want[2]), abs=1e-7)
             np.testing.assert_allclose(fast.to_enu(*got), (east, north, up), atol=1e-6)
+
+
+def test_transition_is_identity_plus_f_dt():
+    settings = em.ErrorModelSettings()
+    args = (RNG.normal(0, 10, 3), RNG.normal(0, 5, 3), RNG.normal(0, 1e-5, 3), RNG.normal(0, 7e-5, 3),
+            T @ to_dcm_ref(random_quaternion()), 0.7, 120.0, 0.3)
+    f = em.dynamics(settings, *args)
+    for n in (16, 17, 20):
+        want = np.eye(n)
+        want[:16, :16] += f * 0.05
+        assert np.array_equal(em.transition(settings, *args, 0.05, n), want)

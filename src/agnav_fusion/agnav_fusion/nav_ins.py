@@ -19,7 +19,8 @@ from agnav_common.input_guard import StreamClockSettings
 
 from agnav_fusion.front_end import InputGuard, InputGuardSettings, Overdue
 from agnav_fusion.ins import GnssSample, InsEkf, InsEkfSettings
-from agnav_fusion.ins.frames import FRD, FastPlane, Mounts, base_link_state, ekf_base_link_state
+from agnav_fusion.ins.frames import FastPlane, Mounts, base_link_state, ekf_base_link_state
+from agnav_fusion.ins.mechanization import _floats
 from agnav_fusion.nav_settings import NavState
 
 SKIP = ("lever_gnss_frd", "lever_base_frd", "initial_heading", "initial_heading_sigma", "guard.gnss_max_lead")  # TF / REP-103 / ekf
@@ -100,7 +101,8 @@ class InsNavigation:
         if self.ekf is None:
             return None
         self.guard.count("imu")
-        reason = self.ekf.add_imu(t, FRD * gyro_flu, FRD * accel_flu)
+        (g0, g1, g2), (a0, a1, a2) = _floats(gyro_flu), _floats(accel_flu)
+        reason = self.ekf.add_imu(t, (g0, -g1, -g2), (a0, -a1, -a2))    # FLU -> FRD (FRD * x)
         self._filter_events()
         if reason is not None:
             return None

@@ -16,7 +16,7 @@ import numpy as np
 
 from agnav_fusion import kalman
 
-from . import chi2, earth, error_model as em, feedback, quaternion
+from . import chi2, earth, error_model as em, feedback
 from .constraints import CRAB, NonHolonomic
 from .history import SolutionHistory
 from .alignment import FixTrack, initial_state, initial_variances
@@ -186,12 +186,11 @@ class InsEkf:
         Φ = I, white noise `q_extra` [unit²/s]."""
         st = self.mech.state
         rho, omega, a_c, c_bc = self._f
-        f = em.dynamics(self.s.error, st.v, a_c, rho, omega, em.body_to_c(c_bc), st.lat, st.h, st.alpha)
-        phi = np.eye(len(p))
-        phi[:em.N_STATES, :em.N_STATES] += f * dt
+        phi = em.transition(self.s.error, st.v, a_c, rho, omega, em.body_to_c(c_bc), st.lat, st.h, st.alpha, dt, len(p))
         q = (np.concatenate([self.psd, np.asarray(q_extra, dtype=float)]) if len(q_extra) else self.psd) * dt
         if self.nhc is not None:
-            a, roll = min(dt / self.s.nhc.crab_tau, 1.0), quaternion.roll(st.q.tolist())
+            (_, _, _), (_, _, _), (_, c7, c8) = st.dcm_rows()
+            a, roll = min(dt / self.s.nhc.crab_tau, 1.0), math.atan2(c7, c8)
             phi[CRAB, CRAB] = 1.0 - a
             self.crab += a * (self.s.nhc.crab_mean(roll, self.heading_sigma()) - self.crab)
             q[CRAB] = 2.0 * a * self.s.nhc.crab_var(roll)
@@ -375,9 +374,10 @@ class InsEkf:
 
     def _feedback(self, x, p):
         st = self.mech.state
-        before = np.array([st.lat, st.lon, st.h, *st.v_ned()])
+        before = (st.lat, st.lon, st.h, *st.v_ned_floats())
         p = self.feedback(x, p)
-        self._corr = self._corr + (np.array([st.lat, st.lon, st.h, *st.v_ned()]) - before)   # new (history)
+        after = (st.lat, st.lon, st.h, *st.v_ned_floats())
+        self._corr = self._corr + np.array([a - b for a, b in zip(after, before)])    # a new array (history)
         if p[em.GAMMA, em.GAMMA] > 1.0:          # no worse than an unknown heading
             scale = 1.0 / math.sqrt(p[em.GAMMA, em.GAMMA])
             p[em.GAMMA, :] *= scale

@@ -47,14 +47,32 @@ class ErrorModelSettings:
 
 
 def dynamics(settings, v, f_c, rho, omega, c_b_c, lat, h, alpha):
-    """F = d(x')/dx at x = 0 for computed velocity v, specific force f_c (both in C), transport rate
-    rho, earth rate omega, body->C DCM c_b_c (5-4-10..40, 5-4-41..46). Sequences of Python floats or arrays;
-    the nonzero entries are written in scalars (the term-by-term form is `dynamics_terms` in the tests)."""
-    v0, v1, v2 = (float(x) for x in v)
-    f0, f1, f2 = (float(x) for x in f_c)
-    r0, r1, r2 = (float(x) for x in rho)
-    o0, o1, o2 = (float(x) for x in omega)
-    (c0, c1, c2), (c3, c4, c5), (c6, c7, c8) = (tuple(float(x) for x in row) for row in c_b_c)
+    """F = d(x')/dx at x = 0 (see dynamics_values)."""
+    f = np.zeros(N_STATES * N_STATES)
+    f[_F_INDEX] = dynamics_values(settings, v, f_c, rho, omega, c_b_c, lat, h, alpha)
+    return f.reshape(N_STATES, N_STATES)
+
+
+def transition(settings, v, f_c, rho, omega, c_b_c, lat, h, alpha, dt, n=N_STATES):
+    """Φ = I + F dt as an n x n matrix (n >= N_STATES: identity beyond the error states)."""
+    if n not in _PHI_INDEX:
+        _PHI_INDEX[n] = np.array([(i // N_STATES) * n + i % N_STATES for i in _F_INDEX])
+    phi = np.zeros(n * n)
+    phi[_PHI_INDEX[n]] = dynamics_values(settings, v, f_c, rho, omega, c_b_c, lat, h, alpha)
+    phi *= dt
+    phi[::n + 1] += 1.0
+    return phi.reshape(n, n)
+
+
+def dynamics_values(settings, v, f_c, rho, omega, c_b_c, lat, h, alpha):
+    """The nonzero entries (order of _F_INDEX) of F = d(x')/dx at x = 0 for computed velocity v, specific force f_c
+    (both in C), transport rate rho, earth rate omega, body->C DCM c_b_c (5-4-10..40, 5-4-41..46). Arrays or
+    Python floats, written out in scalars (the term-by-term form is `dynamics_terms` in the tests)."""
+    v0, v1, v2 = _floats(v)
+    f0, f1, f2 = _floats(f_c)
+    r0, r1, r2 = _floats(rho)
+    o0, o1, o2 = _floats(omega)
+    (c0, c1, c2), (c3, c4, c5), (c6, c7, c8) = c_b_c.tolist() if isinstance(c_b_c, np.ndarray) else c_b_c
     r = earth.mean_radius(lat) + h
     om = earth.OMEGA
     sl, cl, sa, ca = math.sin(lat), math.cos(lat), math.sin(alpha), math.cos(alpha)
@@ -90,9 +108,12 @@ def dynamics(settings, v, f_c, rho, omega, c_b_c, lat, h, alpha):
         -ox2, -oy2, wr0, -wr1, c6, c7, c8,
         # sensor errors, first-order Gauss-Markov (5-4-41..46)
         ta, ta, ta, tg, tg, tg)
-    f = np.zeros(N_STATES * N_STATES)
-    f[_F_INDEX] = vals
-    return f.reshape(N_STATES, N_STATES)
+    return vals
+
+
+def _floats(x):
+    """A vector as Python floats (tuples of floats pass through)."""
+    return x.tolist() if isinstance(x, np.ndarray) else x
 
 
 def _flat(entries):
@@ -100,6 +121,7 @@ def _flat(entries):
 
 
 BA0, BG0 = BA.start, BG.start
+_PHI_INDEX = {}     # n -> flat indices of _F_INDEX's entries in an n x n matrix
 _F_INDEX = _flat(
     [(RX, VY), (RX, H), (RX, GAMMA), (RX, BETA),
      (RY, VX), (RY, H), (RY, GAMMA), (RY, BETA),

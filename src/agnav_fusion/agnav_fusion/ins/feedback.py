@@ -28,7 +28,7 @@ def apply(mech, x):
     v0, v1, v2 = s.v.tolist()
     s.v = np.array((v0 - x[em.VX], v1 - x[em.VY], v2 - x[em.VZ]))
     # attitude: C_B^Cbar <- (I + [(T δθ) x]) C_B^Cbar
-    s.q = quaternion.from_dcm(mat3(rotation_rows(x[em.TX], -x[em.TY], 0.0), quaternion.dcm_rows(s.q.tolist())))
+    s.q = quaternion.from_dcm(mat3(rotation_rows(x[em.TX], -x[em.TY], 0.0), s.dcm_rows()))
     ba, bg = em.BA.start, em.BG.start
     mech.accel_bias = mech.accel_bias + x[ba:ba + 3]
     mech.gyro_bias = mech.gyro_bias + x[bg:bg + 3]

@@ -12,7 +12,7 @@ from agnav_common.frames import wrap_angle
 
 from .earth import radii
 from .measurements import ENU_TO_NED
-from . import error_model as em, quaternion
+from . import error_model as em
 from .constraints import CRAB
 from .solution import TWO_PI, congruence3
 
@@ -141,7 +141,7 @@ def ekf_base_link_state(ekf, mounts, plane, rate_var=(0.0, 0.0, 0.0)):
     st, p = ekf.mech.state, ekf.p
     (e0, e1, e2), (e3, e4, e5), (e6, e7, e8) = st.c_ec.tolist()
     lat, lon, alpha, h = math.asin(max(-1.0, min(1.0, e8))), math.atan2(e7, e6), math.atan2(-e5, e2), st.h
-    (c0, c1, c2), (c3, c4, c5), (c6, c7, c8) = quaternion.dcm_rows(st.q.tolist())     # C_B^Cbar
+    (c0, c1, c2), (c3, c4, c5), (c6, c7, c8) = st.dcm_rows()     # C_B^Cbar
     ca, sa = math.cos(alpha), math.sin(alpha)
     n0, n1, n2 = ca * c0 + sa * c3, ca * c1 + sa * c4, ca * c2 + sa * c5              # C_B^NED
     n3, n4, n5 = -sa * c0 + ca * c3, -sa * c1 + ca * c4, -sa * c2 + ca * c5

@@ -9,7 +9,6 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-from agnav_common.frames import cross
 
 from . import earth, quaternion
 
@@ -80,6 +79,7 @@ class InsState:
     h: float
     v: np.ndarray
     q: np.ndarray
+    _dcm_of = None              # the q (object) whose C_B^Cbar rows are cached in _dcm: q is replaced, never modified
 
     @classmethod
     def from_geodetic(cls, lat, lon, h, roll, pitch, heading, v_ned=(0.0, 0.0, 0.0)):
@@ -105,7 +105,13 @@ class InsState:
 
     def c_b_cbar(self):
         """Body -> C-bar DCM (5-3-5)."""
-        return quaternion.to_dcm(self.q)
+        return np.array(self.dcm_rows())
+
+    def dcm_rows(self):
+        """C_B^Cbar as three row tuples of Python floats (cached for the current q)."""
+        if self._dcm_of is not self.q:
+            self._dcm, self._dcm_of = quaternion.dcm_rows(self.q.tolist()), self.q
+        return self._dcm
 
     def c_b_ned(self):
         """Body (FRD) -> local level NED DCM."""
@@ -119,6 +125,13 @@ class InsState:
     def v_ned(self):
         """Velocity in NED [m/s]."""
         return c_cbar_ned(self.alpha) @ (T @ self.v)
+
+    def v_ned_floats(self):
+        """v_ned() as a tuple of Python floats."""
+        alpha = self.alpha
+        ca, sa = math.cos(alpha), math.sin(alpha)
+        v0, v1, v2 = self.v.tolist()
+        return ca * v0 - sa * v1, -sa * v0 - ca * v1, -v2
 
 
 @dataclass
@@ -147,14 +160,15 @@ class Mechanization:
         r0, r1 = -v1 * iry + v0 * itau, v0 * irx - v1 * itau                  # transport rate, rho_z = 0
         o0, o1, o2 = earth.OMEGA * (cl * ca), earth.OMEGA * (-cl * sa), earth.OMEGA * sl   # earth rate in C
         # steps 3-5: body rotation relative to C, quaternion update (5-3-7..10)
-        (d0, d1, d2), (d3, d4, d5), (d6, d7, d8) = quaternion.dcm_rows(s.q.tolist())
+        (d0, d1, d2), (d3, d4, d5), (d6, d7, d8) = s.dcm_rows()
         w0, w1, w2 = (r0 + o0) * dt, -((r1 + o1) * dt), -((0.0 + o2) * dt)
         q = quaternion.increment((gx - bgx) * dt - (d0 * w0 + d3 * w1 + d6 * w2),
                                  (gy - bgy) * dt - (d1 * w0 + d4 * w1 + d7 * w2),
                                  (gz - bgz) * dt - (d2 * w0 + d5 * w1 + d8 * w2), *s.q.tolist())
         s.q = np.array(q)
+        s._dcm, s._dcm_of = quaternion.dcm_rows(q), s.q
         # steps 6-7: specific force into C, velocity with Coriolis and gravity (5-3-14, 5-3-15)
-        c_bc = quaternion.dcm_rows(q)
+        c_bc = s._dcm
         (d0, d1, d2), (d3, d4, d5), (d6, d7, d8) = c_bc
         fx, fy, fz = ax - bax, ay - bay, az - baz
         a_c = (d0 * fx + d1 * fy + d2 * fz, -(d3 * fx + d4 * fy + d5 * fz), -(d6 * fx + d7 * fy + d8 * fz))

@@ -5,7 +5,7 @@ import math
 
 import numpy as np
 
-from . import earth, error_model as em, quaternion
+from . import earth, error_model as em
 from .constraints import CRAB
 from .settings import NavSolution
 
@@ -35,7 +35,7 @@ def solution_parts(ekf):
     3x3 row tuples."""
     st, p = ekf.mech.state, ekf.p
     lat, alpha, h = st.lat, st.alpha, st.h
-    r0, r1, r2 = quaternion.dcm_rows(st.q.tolist())           # C_B^Cbar
+    r0, r1, r2 = st.dcm_rows()           # C_B^Cbar
     (c0, c1, c2), (c3, _, _), (c6, c7, c8) = r0, r1, r2
     ca, sa = math.cos(alpha), math.sin(alpha)
     v0, v1, v2 = st.v.tolist()
