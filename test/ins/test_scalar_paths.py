@@ -370,3 +370,25 @@ def test_transition_is_identity_plus_f_dt():
         want = np.eye(n)
         want[:16, :16] += f * 0.05
         assert np.array_equal(em.transition(settings, *args, 0.05, n), want)
+
+
+def test_state_caches_follow_replaced_arrays():
+    st = random_state()
+    lat, lon, alpha = st.lat, st.lon, st.alpha
+    assert (lat, lon, alpha) == (math.asin(st.c_ec[2, 2]), math.atan2(st.c_ec[2, 1], st.c_ec[2, 0]),
+                                 math.atan2(-st.c_ec[1, 2], st.c_ec[0, 2]))
+    st.c_ec = rotation_ref(np.array([1e-3, -2e-3, 0.0])) @ st.c_ec
+    assert st.lat == math.asin(st.c_ec[2, 2]) and st.alpha == math.atan2(-st.c_ec[1, 2], st.c_ec[0, 2])
+    st.q = random_quaternion()
+    assert np.array_equal(st.c_b_cbar(), quaternion.to_dcm(st.q))
+    m = Mechanization(st)
+    m.step((0.1, 0.0, 0.2), (0.0, 0.0, -9.8), 0.01)
+    assert st.geo() == (math.asin(st.c_ec[2, 2]), math.atan2(st.c_ec[2, 1], st.c_ec[2, 0]),
+                        math.atan2(-st.c_ec[1, 2], st.c_ec[0, 2]))
+    assert np.array_equal(st.c_b_cbar(), quaternion.to_dcm(st.q))
+
+
+def test_local_terms_are_wander_radii_and_gravity():
+    for lat, h, alpha in RNG.uniform([-1.5, -100, -3], [1.5, 3000, 3], (50, 3)):
+        got = earth.local_terms(lat, h, math.sin(lat), math.sin(alpha), math.cos(alpha))
+        assert got == (*earth.wander_radii(lat, h, alpha), earth.gravity(lat, h))

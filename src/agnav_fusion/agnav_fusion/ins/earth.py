@@ -27,6 +27,17 @@ def wander_radii(lat, h, alpha):
     return sa * sa * i_n + ca * ca * im, ca * ca * i_n + sa * sa * im, sa * ca * (im - i_n)
 
 
+def local_terms(lat, h, sl, sa, ca):
+    """wander_radii(lat, h, alpha) and gravity(lat, h) at once, from sl = sin(lat), sa, ca = sin, cos(alpha)."""
+    s2 = sl ** 2
+    w = math.sqrt(1.0 - E2 * s2)
+    rm, rn = A * (1.0 - E2) / w ** 3, A / w
+    im, i_n = 1.0 / (rm + h), 1.0 / (rn + h)
+    g0 = GAMMA_E * (1.0 + K_SOMIGLIANA * s2) / w
+    return (sa * sa * i_n + ca * ca * im, ca * ca * i_n + sa * sa * im, sa * ca * (im - i_n),
+            g0 * (1.0 - 2.0 / A * (1.0 + F + GM_RATIO - 2.0 * F * s2) * h + 3.0 * h * h / (A * A)))
+
+
 def transport_rate(v, lat, h, alpha):
     """rho^C of the wander frame, rho_z = 0 (5-3-16..18)."""
     irx, iry, itau = wander_radii(lat, h, alpha)

@@ -186,7 +186,8 @@ class InsEkf:
         Φ = I, white noise `q_extra` [unit²/s]."""
         st = self.mech.state
         rho, omega, a_c, c_bc = self._f
-        phi = em.transition(self.s.error, st.v, a_c, rho, omega, em.body_to_c(c_bc), st.lat, st.h, st.alpha, dt, len(p))
+        lat, _, alpha = st.geo()
+        phi = em.transition(self.s.error, st.v, a_c, rho, omega, em.body_to_c(c_bc), lat, st.h, alpha, dt, len(p))
         q = (np.concatenate([self.psd, np.asarray(q_extra, dtype=float)]) if len(q_extra) else self.psd) * dt
         if self.nhc is not None:
             (_, _, _), (_, _, _), (_, c7, c8) = st.dcm_rows()
@@ -304,7 +305,8 @@ class InsEkf:
     def _snapshot(self):
         st = self.mech.state
         c_bc = self._f[3] if self._f is not None else st.c_b_cbar()
-        self._history.append((self.t, st.lat, st.lon, st.h, st.alpha, st.v, c_bc, self.omega_b), self._corr)
+        lat, lon, alpha = st.geo()
+        self._history.append((self.t, lat, lon, st.h, alpha, st.v, c_bc, self.omega_b), self._corr)
 
     def _process_pending(self):
         keep = []

@@ -139,8 +139,7 @@ def ekf_base_link_state(ekf, mounts, plane, rate_var=(0.0, 0.0, 0.0)):
     straight from the filter state on Python floats, without the NavSolution (the same values up to rounding:
     the twist covariance is rotated from C to the body in one step, T C_B^Cbar^T T, instead of via ENU)."""
     st, p = ekf.mech.state, ekf.p
-    (e0, e1, e2), (e3, e4, e5), (e6, e7, e8) = st.c_ec.tolist()
-    lat, lon, alpha, h = math.asin(max(-1.0, min(1.0, e8))), math.atan2(e7, e6), math.atan2(-e5, e2), st.h
+    (lat, lon, alpha), h = st.geo(), st.h
     (c0, c1, c2), (c3, c4, c5), (c6, c7, c8) = st.dcm_rows()     # C_B^Cbar
     ca, sa = math.cos(alpha), math.sin(alpha)
     n0, n1, n2 = ca * c0 + sa * c3, ca * c1 + sa * c4, ca * c2 + sa * c5              # C_B^NED

@@ -38,14 +38,19 @@ def rotation_rows(x, y, z):
 
 
 def _floats(x):
-    """A 3-vector as a list of Python floats."""
-    return x.tolist() if isinstance(x, np.ndarray) else [float(v) for v in x]
+    """A 3-vector as Python floats (a tuple passes as it is)."""
+    return x if type(x) is tuple else x.tolist() if isinstance(x, np.ndarray) else [float(v) for v in x]
 
 
 def orthonormalize(c):
     """Nearest rotation matrix (SVD)."""
     u, _, vt = np.linalg.svd(c)
     return u @ vt
+
+
+def geo_of(c02, c12, c20, c21, c22):
+    """(lat, lon, alpha) from the elements of C_E^C (5-3-20..22)."""
+    return math.asin(max(-1.0, min(1.0, c22))), math.atan2(c21, c20), math.atan2(-c12, c02)
 
 
 def c_e_c(lat, lon, alpha):
@@ -80,6 +85,7 @@ class InsState:
     v: np.ndarray
     q: np.ndarray
     _dcm_of = None              # the q (object) whose C_B^Cbar rows are cached in _dcm: q is replaced, never modified
+    _geo_of = None              # the c_ec (object) whose (lat, lon, alpha) are cached in _geo: likewise
 
     @classmethod
     def from_geodetic(cls, lat, lon, h, roll, pitch, heading, v_ned=(0.0, 0.0, 0.0)):
@@ -91,17 +97,24 @@ class InsState:
     @property
     def lat(self):
         """Latitude [rad] (5-3-20)."""
-        return math.asin(max(-1.0, min(1.0, self.c_ec[2, 2])))
+        return self.geo()[0]
 
     @property
     def lon(self):
         """Longitude [rad] (5-3-21)."""
-        return math.atan2(self.c_ec[2, 1], self.c_ec[2, 0])
+        return self.geo()[1]
 
     @property
     def alpha(self):
         """Wander angle [rad] (5-3-22)."""
-        return math.atan2(-self.c_ec[1, 2], self.c_ec[0, 2])
+        return self.geo()[2]
+
+    def geo(self):
+        """(lat, lon, alpha) [rad] of C_E^C (5-3-20..22), cached for the current c_ec."""
+        if self._geo_of is not self.c_ec:
+            (_, _, c02), (_, _, c12), (c20, c21, c22) = self.c_ec.tolist()
+            self._geo, self._geo_of = geo_of(c02, c12, c20, c21, c22), self.c_ec
+        return self._geo
 
     def c_b_cbar(self):
         """Body -> C-bar DCM (5-3-5)."""
@@ -154,9 +167,9 @@ class Mechanization:
         ax, ay, az = _floats(accel_frd)
         bgx, bgy, bgz = self.gyro_bias.tolist()
         bax, bay, baz = self.accel_bias.tolist()
-        lat, alpha = math.asin(max(-1.0, min(1.0, c8))), math.atan2(-c5, c2)
+        lat, _, alpha = s.geo()
         sl, cl, sa, ca = math.sin(lat), math.cos(lat), math.sin(alpha), math.cos(alpha)
-        irx, iry, itau = earth.wander_radii(lat, h, alpha)
+        irx, iry, itau, gravity = earth.local_terms(lat, h, sl, sa, ca)
         r0, r1 = -v1 * iry + v0 * itau, v0 * irx - v1 * itau                  # transport rate, rho_z = 0
         o0, o1, o2 = earth.OMEGA * (cl * ca), earth.OMEGA * (-cl * sa), earth.OMEGA * sl   # earth rate in C
         # steps 3-5: body rotation relative to C, quaternion update (5-3-7..10)
@@ -174,7 +187,7 @@ class Mechanization:
         a_c = (d0 * fx + d1 * fy + d2 * fz, -(d3 * fx + d4 * fy + d5 * fz), -(d6 * fx + d7 * fy + d8 * fz))
         p0, p1, p2 = r0 + 2.0 * o0, r1 + 2.0 * o1, 0.0 + 2.0 * o2
         g_n = -8.08e-9 * h * math.sin(2.0 * lat)
-        gc = (g_n * ca, -g_n * sa, -earth.gravity(lat, h))
+        gc = (g_n * ca, -g_n * sa, -gravity)
         n0 = v0 + (a_c[0] - (p1 * v2 - p2 * v1) + gc[0]) * dt
         n1 = v1 + (a_c[1] - (p2 * v0 - p0 * v2) + gc[1]) * dt
         n2 = v2 + (a_c[2] - (p0 * v1 - p1 * v0) + gc[2]) * dt
@@ -183,9 +196,11 @@ class Mechanization:
         m0, m1, m2 = 0.5 * (v0 + n0), 0.5 * (v1 + n1), 0.5 * (v2 + n2)
         rho_mid = (-m1 * iry + m0 * itau, m0 * irx - m1 * itau, 0.0)
         (e0, e1, e2), (e3, e4, e5), (e6, e7, e8) = rotation_rows(-rho_mid[0] * dt, -rho_mid[1] * dt, -0.0 * dt)
-        s.c_ec = np.array(((e0 * c0 + e1 * c3 + e2 * c6, e0 * c1 + e1 * c4 + e2 * c7, e0 * c2 + e1 * c5 + e2 * c8),
-                           (e3 * c0 + e4 * c3 + e5 * c6, e3 * c1 + e4 * c4 + e5 * c7, e3 * c2 + e4 * c5 + e5 * c8),
-                           (e6 * c0 + e7 * c3 + e8 * c6, e6 * c1 + e7 * c4 + e8 * c7, e6 * c2 + e7 * c5 + e8 * c8)))
+        n02, n12 = e0 * c2 + e1 * c5 + e2 * c8, e3 * c2 + e4 * c5 + e5 * c8
+        n20, n21, n22 = e6 * c0 + e7 * c3 + e8 * c6, e6 * c1 + e7 * c4 + e8 * c7, e6 * c2 + e7 * c5 + e8 * c8
+        s.c_ec = np.array(((e0 * c0 + e1 * c3 + e2 * c6, e0 * c1 + e1 * c4 + e2 * c7, n02),
+                           (e3 * c0 + e4 * c3 + e5 * c6, e3 * c1 + e4 * c4 + e5 * c7, n12), (n20, n21, n22)))
+        s._geo, s._geo_of = geo_of(n02, n12, n20, n21, n22), s.c_ec
         s.h = h + m2 * dt
         return rho_mid, (o0, o1, o2), a_c, c_bc
 
