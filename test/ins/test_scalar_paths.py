@@ -305,7 +305,9 @@ def from_dcm_ref(c):
 
 def apply_ref(mech, x):
     from agnav_fusion.ins.feedback import azimuth_error
-    from agnav_fusion.ins.mechanization import orthonormalize
+    def orthonormalize(c):
+        u, _, vt = np.linalg.svd(c)
+        return u @ vt
     s = mech.state
     d_alpha = azimuth_error(x[em.GAMMA], x[em.BETA])
     ca, sa = math.cos(d_alpha), math.sin(d_alpha)
@@ -392,3 +394,14 @@ def test_local_terms_are_wander_radii_and_gravity():
     for lat, h, alpha in RNG.uniform([-1.5, -100, -3], [1.5, 3000, 3], (50, 3)):
         got = earth.local_terms(lat, h, math.sin(lat), math.sin(alpha), math.cos(alpha))
         assert got == (*earth.wander_radii(lat, h, alpha), earth.gravity(lat, h))
+
+
+def test_orthonormalize_is_the_polar_factor():
+    from agnav_fusion.ins.mechanization import orthonormalize
+    for scale in (0.0, 1e-15, 1e-12, 1e-9, 1e-7, 1e-5, 1e-2):
+        for _ in range(20):
+            c = to_dcm_ref(random_quaternion()) + RNG.normal(0, scale, (3, 3))
+            u, _, vt = np.linalg.svd(c)
+            got = orthonormalize(c)
+            np.testing.assert_allclose(got, u @ vt, rtol=0, atol=5e-15)
+            np.testing.assert_allclose(got.T @ got, np.eye(3), rtol=0, atol=2e-15)

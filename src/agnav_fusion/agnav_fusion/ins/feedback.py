@@ -23,7 +23,7 @@ def apply(mech, x):
     # frame: C_E^C <- (I + [δr x]) M_z(-δα) C_E^C, δr = (δr_x, δr_y, 0)
     ca, sa = math.cos(d_alpha), math.sin(d_alpha)
     m = ((ca, -sa, ry), (sa, ca, -rx), (-ry * ca + rx * sa, ry * sa + rx * ca, 1.0))
-    s.c_ec = orthonormalize(np.array(mat3(m, s.c_ec.tolist())))
+    s.c_ec = orthonormalize(mat3(m, s.c_ec.tolist()))
     s.h -= x[em.H]
     v0, v1, v2 = s.v.tolist()
     s.v = np.array((v0 - x[em.VX], v1 - x[em.VY], v2 - x[em.VZ]))

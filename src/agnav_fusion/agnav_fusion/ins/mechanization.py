@@ -43,9 +43,34 @@ def _floats(x):
 
 
 def orthonormalize(c):
-    """Nearest rotation matrix (SVD)."""
-    u, _, vt = np.linalg.svd(c)
+    """Nearest rotation matrix (the orthogonal polar factor): for a matrix within 1e-6 of a rotation (the INS's
+    C_E^C after a correction or rounding drift) Newton-Schulz steps on Python floats, X <- X (3 I - X^T X) / 2,
+    which converge quadratically (two steps at most); else the SVD."""
+    x = c.tolist() if isinstance(c, np.ndarray) else c
+    for _ in range(4):
+        (a0, a1, a2), (a3, a4, a5), (a6, a7, a8) = x
+        g00, g11, g22 = a0 * a0 + a3 * a3 + a6 * a6, a1 * a1 + a4 * a4 + a7 * a7, a2 * a2 + a5 * a5 + a8 * a8
+        g01, g02, g12 = a0 * a1 + a3 * a4 + a6 * a7, a0 * a2 + a3 * a5 + a6 * a8, a1 * a2 + a4 * a5 + a7 * a8
+        err = max(abs(g00 - 1.0), abs(g11 - 1.0), abs(g22 - 1.0), abs(g01), abs(g02), abs(g12))
+        if err > 1e-6:
+            break
+        if err == 0.0:
+            return np.array(x)
+        m = ((1.5 - 0.5 * g00, -0.5 * g01, -0.5 * g02), (-0.5 * g01, 1.5 - 0.5 * g11, -0.5 * g12),
+             (-0.5 * g02, -0.5 * g12, 1.5 - 0.5 * g22))
+        x = _mat3(x, m)
+        if err < 1e-12:        # the next step's change (~err^2) is below rounding
+            return np.array(x)
+    u, _, vt = np.linalg.svd(np.asarray(c, dtype=float))
     return u @ vt
+
+
+def _mat3(a, b):
+    (a0, a1, a2), (a3, a4, a5), (a6, a7, a8) = a
+    (b0, b1, b2), (b3, b4, b5), (b6, b7, b8) = b
+    return ((a0 * b0 + a1 * b3 + a2 * b6, a0 * b1 + a1 * b4 + a2 * b7, a0 * b2 + a1 * b5 + a2 * b8),
+            (a3 * b0 + a4 * b3 + a5 * b6, a3 * b1 + a4 * b4 + a5 * b7, a3 * b2 + a4 * b5 + a5 * b8),
+            (a6 * b0 + a7 * b3 + a8 * b6, a6 * b1 + a7 * b4 + a8 * b7, a6 * b2 + a7 * b5 + a8 * b8))
 
 
 def geo_of(c02, c12, c20, c21, c22):
