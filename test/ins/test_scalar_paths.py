@@ -405,3 +405,30 @@ def test_orthonormalize_is_the_polar_factor():
             got = orthonormalize(c)
             np.testing.assert_allclose(got, u @ vt, rtol=0, atol=5e-15)
             np.testing.assert_allclose(got.T @ got, np.eye(3), rtol=0, atol=2e-15)
+
+
+def nhc_linearize_ref(nhc, c_b_cbar, v_c, omega_b, crab, n_states):
+    v_b = c_b_cbar.T @ (T @ v_c) + np.cross(omega_b, nhc.lever)
+    j = np.zeros((3, n_states))
+    j[:, list(em.V3)] = c_b_cbar.T @ T
+    m = -c_b_cbar.T @ skew(T @ v_c)
+    j[:, em.TX], j[:, em.TY] = m[:, 0], -m[:, 1]
+    j[:, em.BG] = -skew(nhc.lever)
+    h = np.stack([j[1] - crab * j[0], j[2]])
+    h[0, em.N_STATES] = -v_b[0]
+    extra = (nhc.s.speed_sigma_gain * abs(v_b[0])) ** 2
+    r = np.diag([nhc.s.lateral_sigma ** 2 + extra, nhc.s.vertical_sigma ** 2 + extra])
+    return np.array([v_b[1] - v_b[0] * crab, v_b[2]]), h, r
+
+
+@pytest.mark.parametrize("trial", range(10))
+def test_nhc_rows_match_the_matrix_form(trial):
+    from agnav_fusion.ins.constraints import NhcSettings, NonHolonomic
+    nhc = NonHolonomic(NhcSettings(), RNG.normal(0, 1, 3))
+    c, v, w, crab = to_dcm_ref(random_quaternion()), RNG.normal(0, 5, 3), RNG.normal(0, 0.3, 3), RNG.normal(0, 0.05)
+    for n in (17, 21):
+        want = nhc_linearize_ref(nhc, c, v, w, crab, n)
+        for args in ((c, v, w), (tuple(map(tuple, c.tolist())), v, w)):
+            lin = nhc.linearize(*args, crab, n)
+            for got, exp in zip((lin.z, lin.h, lin.r), want):
+                np.testing.assert_allclose(got, exp, rtol=1e-13, atol=1e-15)

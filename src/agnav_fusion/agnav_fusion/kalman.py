@@ -54,3 +54,31 @@ def smooth_log(log, angles=()):
     """RTS over a filter log of (F_k, x_k|k-1, P_k|k-1, x_k|k, P_k|k) entries; returns smoothed (xs, Ps)."""
     F, xp, Pp, xf, Pf = (list(v) for v in zip(*log))
     return rts(xf, Pf, xp[1:], Pp[1:], F[1:], angles)
+
+
+def mahalanobis2(S, y):
+    """y^T S^-1 y (= y @ np.linalg.solve(S, y)); up to 3x3 by the adjugate on Python floats (a positive
+    determinant; anything else goes to np.linalg.solve, which raises on a singular S as before)."""
+    n = len(y)
+    if n <= 3:
+        y = y.tolist()
+        if n == 1:
+            s = float(S[0, 0])
+            if s > 0.0:
+                return y[0] * y[0] / s
+        elif n == 2:
+            (a, b), (c, d) = S.tolist()
+            det = a * d - b * c
+            if det > 0.0:
+                return (y[0] * (d * y[0] - b * y[1]) + y[1] * (a * y[1] - c * y[0])) / det
+        else:
+            (a, b, c), (d, e, f), (g, h, i) = S.tolist()
+            A, B, C = e * i - f * h, f * g - d * i, d * h - e * g          # first column of the adjugate
+            det = a * A + b * B + c * C
+            if det > 0.0:
+                y0, y1, y2 = y
+                x0 = A * y0 + (c * h - b * i) * y1 + (b * f - c * e) * y2
+                x1 = B * y0 + (a * i - c * g) * y1 + (c * d - a * f) * y2
+                x2 = C * y0 + (b * g - a * h) * y1 + (a * e - b * d) * y2
+                return (y0 * x0 + y1 * x1 + y2 * x2) / det
+    return float(y @ np.linalg.solve(S, y))

@@ -62,14 +62,30 @@ class NonHolonomic:
         return c_b_cbar.T @ (T @ v_c) + cross(omega_b, self.lever)
 
     def linearize(self, c_b_cbar, v_c, omega_b, crab, n_states):
-        v_b = self.base_velocity(c_b_cbar, v_c, omega_b)
-        j = np.zeros((3, n_states))                     # d v_b / d x
-        j[:, list(em.V3)] = c_b_cbar.T @ T              # C -> B
-        m = -c_b_cbar.T @ skew(T @ v_c)                 # tilt correction rotates C-bar by (TX, -TY, 0)
-        j[:, em.TX], j[:, em.TY] = m[:, 0], -m[:, 1]
-        j[:, em.BG] = -skew(self.lever)                 # ω = gyro - bias
-        h = np.stack([j[1] - crab * j[0], j[2]])
-        h[0, CRAB] = -v_b[0]
-        extra = (self.s.speed_sigma_gain * abs(v_b[0])) ** 2
+        """Rows of d v_b / d x (written out on floats; the matrix form is in test/ins/test_scalar_paths.py):
+        C -> B for the velocity, the tilt correction rotating C-bar by (TX, -TY, 0), ω = gyro - bias."""
+        c = c_b_cbar.tolist() if isinstance(c_b_cbar, np.ndarray) else c_b_cbar
+        (c0, c1, c2), (c3, c4, c5), (c6, c7, c8) = c
+        u0, u1, u2 = v_c.tolist() if isinstance(v_c, np.ndarray) else v_c
+        u1, u2 = -u1, -u2                                                        # T v
+        w0, w1, w2 = omega_b.tolist() if isinstance(omega_b, np.ndarray) else omega_b
+        l0, l1, l2 = self.lever.tolist()
+        vb0 = c0 * u0 + c3 * u1 + c6 * u2 + (w1 * l2 - w2 * l1)
+        vb1 = c1 * u0 + c4 * u1 + c7 * u2 + (w2 * l0 - w0 * l2)
+        vb2 = c2 * u0 + c5 * u1 + c8 * u2 + (w0 * l1 - w1 * l0)
+        # row i of j over (VX, VY, VZ, TX, TY, BG x3): (c_0i, -c_1i, -c_2i, -(c_1i u2 - c_2i u1), c_2i u0 - c_0i u2,
+        # -[l x]_i)
+        j0 = (c0, -c3, -c6, -(c3 * u2 - c6 * u1), c6 * u0 - c0 * u2, 0.0, l2, -l1)
+        j1 = (c1, -c4, -c7, -(c4 * u2 - c7 * u1), c7 * u0 - c1 * u2, -l2, 0.0, l0)
+        j2 = (c2, -c5, -c8, -(c5 * u2 - c8 * u1), c8 * u0 - c2 * u2, l1, -l0, 0.0)
+        h = np.zeros(2 * n_states)
+        cols = _NHC_COLS
+        h[cols] = [a - crab * b for a, b in zip(j1, j0)]
+        h[n_states + cols] = j2
+        h[CRAB] = -vb0
+        extra = (self.s.speed_sigma_gain * abs(vb0)) ** 2
         r = np.diag([self.s.lateral_sigma ** 2 + extra, self.s.vertical_sigma ** 2 + extra])
-        return Linearized(self.name, np.array([v_b[1] - v_b[0] * crab, v_b[2]]), h, r)
+        return Linearized(self.name, np.array([vb1 - vb0 * crab, vb2]), h.reshape(2, n_states), r)
+
+
+_NHC_COLS = np.array([em.VX, em.VY, em.VZ, em.TX, em.TY, em.BG.start, em.BG.start + 1, em.BG.start + 2])

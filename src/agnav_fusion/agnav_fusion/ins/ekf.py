@@ -212,7 +212,7 @@ class InsEkf:
     def gated(self, lin, p=None):
         """True (and counted) if the linearised observation's innovation passes the chi-square gate under P."""
         p = self.p if p is None else p
-        nis = float(lin.z @ np.linalg.solve(lin.h @ p @ lin.h.T + lin.r, lin.z))
+        nis = kalman.mahalanobis2(lin.h @ p @ lin.h.T + lin.r, lin.z)
         if nis > self._gate(len(lin.z)):
             return not self._reject(lin.name)
         n, total = self.stats["nis"].get(lin.name, (0, 0.0))
@@ -326,7 +326,7 @@ class InsEkf:
     def _nhc_update(self):
         self._propagate_covariance()
         st = self.mech.state
-        lin = self.nhc.linearize(st.c_b_cbar(), st.v, self.omega_b, self.crab, self.n_states)
+        lin = self.nhc.linearize(st.dcm_rows(), st.v, self.omega_b, self.crab, self.n_states)
         if self.gated(lin):
             self._fuse([lin])
 
