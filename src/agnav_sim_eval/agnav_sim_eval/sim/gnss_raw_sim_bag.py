@@ -4,7 +4,8 @@ The mems_field run (seed N: consumer MEMS IMU at 100 Hz, RTK 5 Hz receiver, 2 m/
 plus the simulated rover and base observations of gnss_raw_sim (orbits of base.nav, 1 km baseline, half the random
 cycle slips without LLI) on the drivers' topics: /gnss/raw_observations and /gnss/base/observations
 (agnav_msgs/GnssObservations, u-blox numbering, lock times that fall at a flagged slip), /gnss/base/position
-(PointStamped ECEF, latched), /gnss/nav_data (the ephemerides as LNAV / I/NAV frames, gnss_raw_sim_nav). Base and
+(PointStamped ECEF, latched), /gnss/nav_data (the ephemerides as LNAV / I/NAV frames, gnss_raw_sim_nav, repeated
+every NAV_PERIOD s as a receiver decodes them again). Base and
 rover epochs are logged at their epoch (base first). Sky and receiver per window (`windows`, back to back):
   fixed      – RTK fixed fixes (the simulator's) until `start`, and again after `refloat`;
   float      – every satellite hidden for 2 s before it (all lose lock), then a tree line hides the west half of the
@@ -42,6 +43,7 @@ FIX_RTK_FLOAT = 3          # agnav_msgs/GnssStatus
 BLOCKAGE_S = 2.0
 FLOAT_SIGMA = 0.3          # m, horizontal per axis, of the receiver's RTK float error
 FLOAT_TAU = 30.0           # s, its correlation time
+NAV_PERIOD = 30.0          # s between repeats of the navigation frames (a GPS LNAV frame lasts 30 s)
 
 
 def windows(start=60.0, float_s=60.0, three_sat_s=60.0, outage_s=15.0, refloat_s=15.0):
@@ -101,9 +103,9 @@ class _Messages:
             header=self.header(t, "gnss_link" if receiver == "rover" else "gnss_base"), receiver_tow=epoch.tow,
             week=epoch.week, leap_seconds=18, leap_seconds_known=True, clock_reset=False, observations=obs)
 
-    def nav_data(self, frame):
+    def nav_data(self, t, frame):
         gnss_id, sv_id, sig_id, words = frame
-        return self.T["agnav_msgs/msg/GnssNavData"](header=self.header(0.0, "gnss_link"), gnss_id=gnss_id,
+        return self.T["agnav_msgs/msg/GnssNavData"](header=self.header(t, "gnss_link"), gnss_id=gnss_id,
                                                     sv_id=sv_id, sig_id=sig_id, freq_id=0,
                                                     words=np.array(words, dtype=np.uint32))
 
@@ -159,7 +161,8 @@ def raw_run_rows(seed=1, w=None, duration=None, nav=None):
     store = typestore()
     m = _Messages(store.types)
     rows += [(0.0, "/gnss/base/position", m.base_position(raw.base_pos))]
-    rows += [(0.0, "/gnss/nav_data", m.nav_data(f)) for f in nav_frames(nav, RawSimConfig().systems, raw.config.tow0)]
+    rows += [(t, "/gnss/nav_data", m.nav_data(t, f)) for t in np.arange(0.0, end, NAV_PERIOD)
+             for f in nav_frames(nav, RawSimConfig().systems, raw.config.tow0 + t)]
     for e in raw.epochs:
         rows += [(e.t, "/gnss/base/observations", m.observations(e.t, e.base, "base")),
                  (e.t, "/gnss/raw_observations", m.observations(e.t, e.rover, "rover"))]
