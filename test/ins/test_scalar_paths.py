@@ -432,3 +432,43 @@ def test_nhc_rows_match_the_matrix_form(trial):
             lin = nhc.linearize(*args, crab, n)
             for got, exp in zip((lin.z, lin.h, lin.r), want):
                 np.testing.assert_allclose(got, exp, rtol=1e-13, atol=1e-15)
+
+
+def position_rows_ref(lever, snap, alpha, gnss, n_states, heading_var):
+    from agnav_fusion.ins.lever_arm import antenna_to_imu_position
+    lat_g, lon_g, h_g = antenna_to_imu_position(gnss.lat, gnss.lon, gnss.alt, lever, snap.c_b_ned)
+    a = c_axes(alpha)
+    rm, rn = earth.radii(snap.lat)
+    r_x, r_y = a.T @ np.array([(snap.lon - lon_g) * math.cos(snap.lat), snap.lat - lat_g])
+    h = np.zeros((3, n_states))
+    h[0, [em.RX, em.GAMMA, em.BETA]] = 1.0, r_y, r_x
+    h[1, [em.RY, em.GAMMA, em.BETA]] = 1.0, -r_x, r_y
+    h[2, em.H] = 1.0
+    d = snap.c_b_ned @ lever
+    cn = c_cbar_ned(alpha)
+    dd = np.zeros((3, n_states))
+    dd[:2, em.GAMMA] = d[1], -d[0]
+    dd[:2, em.BETA] = -d[:2]
+    dd[:, em.TX], dd[:, em.TY] = np.cross(d, cn[:, 0]), -np.cross(d, cn[:, 1])
+    scale = np.diag([1.0 / (rn + snap.h), 1.0 / (rm + snap.h)])
+    h[:2] += a.T @ scale @ dd[[1, 0]]
+    h[2] -= dd[2]
+    r = np.zeros((3, 3))
+    r[:2, :2] = a.T @ scale @ (gnss.pos_cov_enu[:2, :2] + heading_var * float(np.sum(d[:2] ** 2)) * np.eye(2)) @ scale @ a
+    r[2, 2] = gnss.pos_cov_enu[2, 2]
+    return np.array([r_x, r_y, snap.h - h_g]), h, r
+
+
+@pytest.mark.parametrize("trial", range(10))
+def test_position_rows_match_the_matrix_form(trial):
+    from agnav_fusion.ins.measurements import GnssPosition, GnssSample, Snapshot
+    lat, lon, h = RNG.uniform(-1.4, 1.4), RNG.uniform(-3, 3), RNG.uniform(-100, 3000)
+    snap = Snapshot(1.0, lat, lon, h, RNG.normal(0, 5, 3), to_dcm_ref(random_quaternion()), RNG.normal(0, 0.2, 3))
+    cov = random_spd(3)
+    g = GnssSample(1.0, lat + RNG.normal(0, 1e-6), lon + RNG.normal(0, 1e-6), h + RNG.normal(0, 2), cov)
+    model = GnssPosition(RNG.normal(0, 1, 3))
+    alpha, hv = RNG.uniform(-3, 3), RNG.choice([0.0, 0.3])
+    for n in (17, 20):
+        lin = model.linearize(snap, alpha, g, n, hv)
+        for got, exp in zip((lin.z, lin.h, lin.r), position_rows_ref(model.lever, snap, alpha, g, n, hv)):
+            np.testing.assert_allclose(got, exp, rtol=1e-12, atol=1e-15)

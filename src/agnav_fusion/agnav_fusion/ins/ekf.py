@@ -121,7 +121,8 @@ class InsEkf:
             self.t = t
             self._propagate(gyro, accel, dt)
             self._process_pending()
-        g0, a0 = (np.asarray(v) for v in (self._last_imu or (gyro, accel)))   # (none yet after adopt)
+        else:
+            g0, a0 = (np.asarray(v) for v in (self._last_imu or (gyro, accel)))   # (none yet after adopt)
         for k in range(1, n + 1 if n > 1 else 1):
             w = k / n
             self.t = t if k == n else t0 + w * dt
@@ -293,7 +294,7 @@ class InsEkf:
 
     def _mechanize(self, gyro, accel, dt):
         self._f = self.mech.step(gyro, accel, dt)
-        self.omega_b = np.subtract(gyro, self.mech.gyro_bias)     # a new array each time (the history keeps it)
+        self.omega_b = np.array(self.mech.rate)     # gyro - bias; a new array each time (the history keeps it)
 
     def _propagate_covariance(self):
         if self._cov_dt > 0.0:      # (+ the unknown motion of a bridged IMU gap)

@@ -84,29 +84,49 @@ class GnssPosition:
         self.lever = np.asarray(lever_frd, dtype=float)
 
     def linearize(self, snap, alpha, gnss, n_states, heading_var=0.0):
-        lat_g, lon_g, h_g = antenna_to_imu_position(gnss.lat, gnss.lon, gnss.alt, self.lever, snap.c_b_ned)
-        a = c_axes(alpha)
+        """Rows on Python floats (the matrix form is in test/ins/test_scalar_paths.py)."""
+        (c0, c1, c2), (c3, c4, c5), (c6, c7, c8) = snap.c_b_ned.tolist()
+        l0, l1, l2 = self.lever.tolist()
+        d0, d1, d2 = c0 * l0 + c1 * l1 + c2 * l2, c3 * l0 + c4 * l1 + c5 * l2, c6 * l0 + c7 * l1 + c8 * l2   # NED
+        rm, rn = earth.radii(gnss.lat)            # the IMU point derived from the antenna (5-5-3)
+        lat_g, lon_g = gnss.lat - d0 / (rm + gnss.alt), gnss.lon - d1 / ((rn + gnss.alt) * math.cos(gnss.lat))
+        ca, sa = math.cos(alpha), math.sin(alpha)                                # c_axes(alpha) = [[ca, -sa], [sa, ca]]
         rm, rn = earth.radii(snap.lat)
-        d_lat, d_lon = snap.lat - lat_g, snap.lon - lon_g
-        r_x, r_y = a.T @ np.array([d_lon * math.cos(snap.lat), d_lat])
-        h = np.zeros((3, n_states))
-        h[0, [em.RX, em.GAMMA, em.BETA]] = 1.0, r_y, r_x
-        h[1, [em.RY, em.GAMMA, em.BETA]] = 1.0, -r_x, r_y
-        h[2, em.H] = 1.0
-        d = snap.c_b_ned @ self.lever                   # antenna offset (NED): d(computed) - d(corrected) per state
-        cn = c_cbar_ned(alpha)
-        dd = np.zeros((3, n_states))
-        dd[:2, em.GAMMA] = d[1], -d[0]
-        dd[:2, em.BETA] = -d[:2]
-        dd[:, em.TX], dd[:, em.TY] = cross(d, cn[:, 0]), -cross(d, cn[:, 1])
-        scale = np.diag([1.0 / (rn + snap.h), 1.0 / (rm + snap.h)])
-        h[:2] += a.T @ scale @ dd[[1, 0]]
-        h[2] -= dd[2]
-        r = np.zeros((3, 3))
-        cov_en = gnss.pos_cov_enu[:2, :2] + heading_var * float(np.sum(d[:2] ** 2)) * np.eye(2)   # (see above)
-        r[:2, :2] = a.T @ scale @ cov_en @ scale @ a
-        r[2, 2] = gnss.pos_cov_enu[2, 2]
-        return Linearized(self.name, np.array([r_x, r_y, snap.h - h_g]), h, r)
+        d_lat, e = snap.lat - lat_g, (snap.lon - lon_g) * math.cos(snap.lat)
+        r_x, r_y = ca * e + sa * d_lat, -sa * e + ca * d_lat
+        # d(computed) - d(corrected) of the antenna offset per state, columns GAMMA, BETA, TX, TY (C-bar axes of
+        # c_cbar_ned(alpha): x = (ca, -sa, 0), y = (sa, ca, 0)), north and east rows scaled to angles
+        s0, s1 = 1.0 / (rn + snap.h), 1.0 / (rm + snap.h)
+        b0 = (s0 * -d0, s0 * -d1, s0 * (d2 * ca), s0 * -(d2 * sa))              # east row (dd[1]) / (R_N + h)
+        b1 = (s1 * d1, s1 * -d0, s1 * (d2 * sa), s1 * (d2 * ca))                # north row (dd[0]) / (R_M + h)
+        h = np.zeros(3 * n_states)
+        h[_POS_COLS[n_states]] = (1.0, r_y + (ca * b0[0] + sa * b1[0]), r_x + (ca * b0[1] + sa * b1[1]),
+                                  ca * b0[2] + sa * b1[2], ca * b0[3] + sa * b1[3],
+                                  1.0, -r_x + (-sa * b0[0] + ca * b1[0]), r_y + (-sa * b0[1] + ca * b1[1]),
+                                  -sa * b0[2] + ca * b1[2], -sa * b0[3] + ca * b1[3],
+                                  1.0, -(-(d0 * sa) - d1 * ca), d0 * ca - d1 * sa)
+        # R: a^T diag(s) (P_en + heading_var |d_en|^2 I) diag(s) a (see above)
+        (p00, p01, _), (p10, p11, _), (_, _, p22) = gnss.pos_cov_enu.tolist()
+        extra = heading_var * (d0 * d0 + d1 * d1)
+        p00, p11 = p00 + extra, p11 + extra
+        m00, m01, m10, m11 = ca * s0, sa * s1, -sa * s0, ca * s1
+        q00, q01, q10, q11 = m00 * p00 + m01 * p10, m00 * p01 + m01 * p11, m10 * p00 + m11 * p10, m10 * p01 + m11 * p11
+        r = np.array(((q00 * m00 + q01 * m01, q00 * m10 + q01 * m11, 0.0),
+                      (q10 * m00 + q11 * m01, q10 * m10 + q11 * m11, 0.0), (0.0, 0.0, p22)))
+        return Linearized(self.name, np.array((r_x, r_y, snap.h - (gnss.alt + d2))), h.reshape(3, n_states), r)
+
+
+class _PositionColumns(dict):
+    """n_states -> flat indices of the position rows' nonzero entries in a 3 x n_states matrix."""
+
+    def __missing__(self, n):
+        cols = [(0, em.RX), (0, em.GAMMA), (0, em.BETA), (0, em.TX), (0, em.TY),
+                (1, em.RY), (1, em.GAMMA), (1, em.BETA), (1, em.TX), (1, em.TY), (2, em.H), (2, em.TX), (2, em.TY)]
+        self[n] = np.array([i * n + j for i, j in cols])
+        return self[n]
+
+
+_POS_COLS = _PositionColumns()
 
 
 class GnssVelocity:

@@ -200,9 +200,9 @@ class Mechanization:
         # steps 3-5: body rotation relative to C, quaternion update (5-3-7..10)
         (d0, d1, d2), (d3, d4, d5), (d6, d7, d8) = s.dcm_rows()
         w0, w1, w2 = (r0 + o0) * dt, -((r1 + o1) * dt), -((0.0 + o2) * dt)
-        q = quaternion.increment((gx - bgx) * dt - (d0 * w0 + d3 * w1 + d6 * w2),
-                                 (gy - bgy) * dt - (d1 * w0 + d4 * w1 + d7 * w2),
-                                 (gz - bgz) * dt - (d2 * w0 + d5 * w1 + d8 * w2), *s.q.tolist())
+        self.rate = rx, ry, rz = gx - bgx, gy - bgy, gz - bgz              # bias-corrected body rate
+        q = quaternion.increment(rx * dt - (d0 * w0 + d3 * w1 + d6 * w2), ry * dt - (d1 * w0 + d4 * w1 + d7 * w2),
+                                 rz * dt - (d2 * w0 + d5 * w1 + d8 * w2), *s.q.tolist())
         s.q = np.array(q)
         s._dcm, s._dcm_of = quaternion.dcm_rows(q), s.q
         # steps 6-7: specific force into C, velocity with Coriolis and gravity (5-3-14, 5-3-15)
