@@ -130,10 +130,25 @@ class AgnavEstimator:
         still_below = max(s.stationary_speed, 2.0 * s.velocity_sigma) if doppler else s.stationary_speed
         creeping = doppler or self.ekf.x is None or abs(self.ekf.x[IV]) < still_below
         was_still, self.still = self.still, speed is not None and speed < still_below and creeping
+        self._check_tilt_compensation(k, speed, vel_var)
         accepted = self._fuse_fix(k, t, xy, R, v_ref, vel_var, speed, was_still and not self.still, doppler,
                                   differenced)
         self.last_fix_t = t
         return accepted
+
+    def _check_tilt_compensation(self, k, speed, vel_var):
+        """The GNSS speed tells whether the acceleration removed from the inclinometers since the last epoch was
+        right: beyond doubt wrong (a start, a braking the speed model had not seen), the attitude filters go back to
+        their gyro-only copies; agreeing with the speed model, the copies restart here; in doubt, they wait."""
+        nav = self.m.history[k].nav
+        if speed is None or vel_var is None or nav is None:
+            return
+        miss = abs(speed - nav[0][IV]) / math.sqrt(vel_var + nav[1][IV, IV])
+        for tilt in (self.roll_filter, self.pitch_filter):
+            if miss > self.m.settings.tilt_revert_sigma:
+                tilt.revert()
+            if miss <= self.m.settings.tilt_keep_sigma or miss > self.m.settings.tilt_revert_sigma:
+                tilt.checkpoint()
 
     def _fuse_fix(self, k, t, xy, R, v_ref, vel_var, speed, started, doppler, differenced):
         s, hist, ekf = self.m.settings, self.m.history, self.ekf
@@ -144,8 +159,9 @@ class AgnavEstimator:
             ekf.P[IPHI, IPHI] = math.pi ** 2
         else:
             ekf.x, ekf.P = snap.nav[0].copy(), snap.nav[1].copy()
-            if started:  # the gyro bias learnt standing still shifts once the vehicle moves
-                ekf.P[IB, IB] += s.motion_bias_sigma ** 2
+            if started:  # the gyro bias learnt standing still shifts once the vehicle moves; the start's
+                ekf.P[IB, IB] += s.motion_bias_sigma ** 2  # acceleration is news to the A state
+                ekf.P[IA, IA] += s.start_accel_sigma ** 2
             if ekf.bias_dropped:
                 ekf.restart_bias()
         if first:

@@ -2,11 +2,12 @@
 (agnav extension of SPEC §6.3: replaces Kise/drift LSM + dead reckoning with one filter giving covariances).
 
 Thesis conventions: state x = [X east, Y north, phi heading cw from north, b yaw-gyro bias, V speed, A accel,
-BX, BY receiver bias, beta crab residual, k crab per sin(roll), rho terrain roll, w wheel-speed scale error];
+BX, BY receiver bias, beta crab residual, k crab per sin(roll), rho terrain roll, w wheel-speed scale error,
+s yaw-gyro scale error];
 the course over ground is
 phi + crab, crab = beta + k sin(rho) (non-holonomic constraint with side slip: the vehicle moves along its heading
-turned by the crab), X' = V sin(phi + crab), Y' = V cos(phi + crab) (as 5.12-5.13), phi' = r - b (r clockwise gyro
-rate). A tractor slides downhill on a cross slope: the slide k sin(rho) follows the terrain roll rho (the estimated
+turned by the crab), X' = V sin(phi + crab), Y' = V cos(phi + crab) (as 5.12-5.13), phi' = (1 + s) r - b (r clockwise
+gyro rate; s is learnt in turns while fixes arrive and keeps a U-turn in an outage on course). A tractor slides downhill on a cross slope: the slide k sin(rho) follows the terrain roll rho (the estimated
 roll through a lag that drops the sway; an input, no variance) with a gain k learnt online (prior crab_roll_gain);
 it is what separates the crab from the heading: a course offset that flips with the roll when the vehicle turns
 on the slope is crab, one that stays is heading. beta, the slide left unexplained, is Gauss-Markov. Speed: without an accelerometer V' = A + w_V, A' = -A/tau + w (a tractor keeps
@@ -22,8 +23,8 @@ import numpy as np
 
 from agnav_fusion import kalman
 
-IX, IY, IPHI, IB, IV, IA, IBX, IBY, IC, IK, IR, IW = range(12)
-N = 12
+IX, IY, IPHI, IB, IV, IA, IBX, IBY, IC, IK, IR, IW, IS = range(13)
+N = 13
 DIAGN = np.diag_indices(N)
 
 
@@ -46,6 +47,8 @@ class NavEKFSettings:
     slip_noise: float = 0.005      # m/sqrt(s) unmodelled position motion (slip, sway)
     wheel_scale_sigma: float = 0.1  # wheel/radar speed scale error (wheel slip, rolling radius): reads V (1 + w)
     wheel_scale_walk: float = 0.002  # 1/sqrt(s), change of that scale (soil, load)
+    gyro_scale_sigma: float = 0.01  # yaw-gyro scale error (ENV-05 class: 1 %)
+    gyro_scale_walk: float = 1.0e-5  # 1/sqrt(s), change of that scale (temperature)
     init_heading_sigma: float = 0.2  # rad, heading from a first course over ground (before the chord)
     init_bias_sigma: float = 0.005  # rad/s
     init_speed_sigma: float = 0.5    # m/s, speed at the first fix
@@ -88,7 +91,7 @@ class NavEKF:
 
     def initialise(self, xy, xy_cov, heading, speed=0.0):
         s = self.settings
-        self.x = np.array([xy[0], xy[1], heading, 0.0, speed, 0.0, 0.0, 0.0, 0.0, s.crab_roll_gain, 0.0, 0.0])
+        self.x = np.array([xy[0], xy[1], heading, 0.0, speed, 0.0, 0.0, 0.0, 0.0, s.crab_roll_gain, 0.0, 0.0, 0.0])
         self.P = np.zeros((N, N))
         self.P[:2, :2] = np.asarray(xy_cov) + self.gnss_bias_var * np.eye(2)
         self.P[IBX, IBX] = self.P[IBY, IBY] = self.gnss_bias_var
@@ -98,6 +101,7 @@ class NavEKF:
         self.P[IC, IC] = s.crab_sigma ** 2
         self.P[IK, IK] = s.crab_gain_sigma ** 2
         self.P[IW, IW] = s.wheel_scale_sigma ** 2
+        self.P[IS, IS] = s.gyro_scale_sigma ** 2
 
     def set_accel_mode(self, on):
         """Switch A between the Gauss-Markov acceleration and the accelerometer bias (a new, uncorrelated start)."""
@@ -129,14 +133,14 @@ class NavEKF:
         self.P[:2, :2] = np.asarray(xy_cov) + self.gnss_bias_var * np.eye(2)
         self.P[IX, IBX] = self.P[IBX, IX] = self.P[IY, IBY] = self.P[IBY, IY] = -self.gnss_bias_var
 
-    def transition(self, dt):
-        """Jacobian F of one propagation step at the current state."""
+    def transition(self, dt, rate=0.0):
+        """Jacobian F of one propagation step at the current state (rate: the clockwise gyro rate)."""
         s, v, c = self.settings, self.x[IV], self.course()
         F = np.eye(N)
         F[IX, IPHI], F[IY, IPHI] = v * math.cos(c) * dt, -v * math.sin(c) * dt
         F[IX:IPHI, IC:IR] = np.outer(F[IX:IPHI, IPHI], self.crab_jacobian())
         F[IX, IV], F[IY, IV] = math.sin(c) * dt, math.cos(c) * dt
-        F[IPHI, IB] = -dt
+        F[IPHI, IB], F[IPHI, IS] = -dt, rate * dt
         F[IV, IA] = -dt if self.accel_mode else dt
         F[IA, IA] = 1.0 if self.accel_mode else math.exp(-dt / s.accel_tau)
         F[IBX, IBX] = F[IBY, IBY] = math.exp(-dt / s.gnss_bias_tau) if s.gnss_bias_tau > 0 else 0.0
@@ -148,12 +152,12 @@ class NavEKF:
         """Propagate with the clockwise yaw rate r (rad/s) over dt (s); accel: along-track acceleration (m/s^2,
         gravity-compensated) in accelerometer mode; roll (rad, right side down) drives the crab model."""
         s = self.settings
-        F = self.transition(dt)
+        F = self.transition(dt, rate)
         v, c = self.x[IV], self.course()
         x = self.x.copy()
         x[IX] += v * math.sin(c) * dt
         x[IY] += v * math.cos(c) * dt
-        x[IPHI] = math.remainder(x[IPHI] + (rate - x[IB]) * dt, 2 * math.pi)
+        x[IPHI] = math.remainder(x[IPHI] + ((1.0 + x[IS]) * rate - x[IB]) * dt, 2 * math.pi)
         x[IV] += ((accel or 0.0) - x[IA]) * dt if self.accel_mode else x[IA] * dt
         x[IA] *= F[IA, IA]
         x[IBX:IC] *= F[IBX, IBX]
@@ -165,7 +169,7 @@ class NavEKF:
         P = F @ self.P @ F.T
         P[DIAGN] += (s.slip_noise ** 2 * dt, s.slip_noise ** 2 * dt, s.rate_noise ** 2 * dt, s.bias_walk ** 2 * dt,
                      q_v * dt, q_a * dt, q_bias, q_bias, s.crab_sigma ** 2 * (1.0 - F[IC, IC] ** 2),
-                     s.crab_gain_walk ** 2 * dt, 0.0, s.wheel_scale_walk ** 2 * dt)
+                     s.crab_gain_walk ** 2 * dt, 0.0, s.wheel_scale_walk ** 2 * dt, s.gyro_scale_walk ** 2 * dt)
         self.P = P
         self.x = x
         if self.log is not None:

@@ -25,9 +25,10 @@ class NavSensorModuleSettings:
     pitch_lsm: AttitudeLSMSettings = field(default_factory=lambda: AttitudeLSMSettings(window=200))
     roll_kf: AttitudeKFSettings = field(default_factory=AttitudeKFSettings)
     # pitch: the start/stop acceleration left after compensation (from 1 Hz GNSS speed) is a coloured error of
-    # seconds, so the pitch inclinometer is trusted less and averaged longer (tuned on seeds 4-5; bench: 1-3)
-    pitch_kf: AttitudeKFSettings = field(default_factory=lambda: AttitudeKFSettings(bias_walk=2.0e-4,
-                                                                                    incl_noise=0.03))
+    # seconds, so the pitch inclinometer is trusted less and averaged longer (tuned on seeds 4-5; bench: 1-3); the
+    # same error makes its identified time constant less sure (campaign tuning seeds < 40)
+    pitch_kf: AttitudeKFSettings = field(default_factory=lambda: AttitudeKFSettings(bias_walk=2.0e-4, incl_noise=0.03,
+                                                                                    tau_rel_identified=0.3))
     heading: GnssGyroHeadingSettings = field(default_factory=GnssGyroHeadingSettings)
     dead_reckoning: DeadReckoningSettings = field(default_factory=DeadReckoningSettings)
     ekf: NavEKFSettings = field(default_factory=NavEKFSettings)
@@ -60,6 +61,10 @@ class NavSensorModuleSettings:
     max_accel: float = 3.0                    # m/s^2, along-track accelerometer reading clipped (bumps) (agnav)
     still_rate_sigma: float = 0.01            # rad/s per IMU sample of a still gyro (ENV-05F 0.25 deg/s, 10 Hz band)
     motion_bias_sigma: float = 0.003          # rad/s, yaw-gyro bias change once moving (SPEC §11.4 motion biases)
+    start_accel_sigma: float = 0.5            # m/s^2, acceleration of a start, unknown to the A state (agnav)
+    tilt_revert_sigma: float = 3.0            # GNSS speed off the speed model by more (sigmas): the acceleration removed
+    #                                           from the inclinometers since the last epoch was wrong; gyro-only since
+    tilt_keep_sigma: float = 1.5              # within (sigmas): it was right, the gyro-only copies restart (agnav)
     history: float = 2.0                      # s of IMU history kept for GNSS latency
     incl_timeout: float = 0.5                 # s, older inclinometer data is stale (gyro-only attitude)
     untracked_tilt_sigma: float = 0.035       # rad, roll/pitch uncertainty while no tilt sensor reports (2°: field)
