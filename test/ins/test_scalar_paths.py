@@ -472,3 +472,30 @@ def test_position_rows_match_the_matrix_form(trial):
         lin = model.linearize(snap, alpha, g, n, hv)
         for got, exp in zip((lin.z, lin.h, lin.r), position_rows_ref(model.lever, snap, alpha, g, n, hv)):
             np.testing.assert_allclose(got, exp, rtol=1e-12, atol=1e-15)
+
+
+def velocity_rows_ref(lever, snap, alpha, gnss, n_states):
+    m = ned_to_c(alpha)
+    va = m @ ENU_TO_NED @ gnss.vel_enu
+    u = c_cbar_ned(alpha).T @ (snap.c_b_ned @ np.cross(snap.omega_b, lever))
+    h = np.zeros((3, n_states))
+    h[0, [em.VX, em.GAMMA, em.BETA]] = 1.0, -va[1], -va[0]
+    h[1, [em.VY, em.GAMMA, em.BETA]] = 1.0, va[0], -va[1]
+    h[2, em.VZ] = 1.0
+    h[:, em.TX], h[:, em.TY] = T @ np.cross(u, [1.0, 0.0, 0.0]), -T @ np.cross(u, [0.0, 1.0, 0.0])
+    h[:, em.BG] = -T @ c_cbar_ned(alpha).T @ snap.c_b_ned @ skew(lever)
+    cov = ENU_TO_NED @ gnss.vel_cov_enu @ ENU_TO_NED.T
+    return m @ snap.v_ned - va + T @ u, h, m @ cov @ m.T
+
+
+@pytest.mark.parametrize("trial", range(10))
+def test_velocity_rows_match_the_matrix_form(trial):
+    from agnav_fusion.ins.measurements import GnssSample, GnssVelocity, Snapshot
+    snap = Snapshot(1.0, 0.7, 2.0, 50.0, RNG.normal(0, 5, 3), to_dcm_ref(random_quaternion()), RNG.normal(0, 0.2, 3))
+    g = GnssSample(1.0, 0.7, 2.0, 50.0, random_spd(3), RNG.normal(0, 5, 3), random_spd(3) + RNG.normal(0, 1e-9, (3, 3)))
+    model = GnssVelocity(RNG.normal(0, 1, 3))
+    alpha = RNG.uniform(-3, 3)
+    for n in (17, 20):
+        lin = model.linearize(snap, alpha, g, n)
+        for got, exp in zip((lin.z, lin.h, lin.r), velocity_rows_ref(model.lever, snap, alpha, g, n)):
+            np.testing.assert_allclose(got, exp, rtol=1e-12, atol=1e-14)

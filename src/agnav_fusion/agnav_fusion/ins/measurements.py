@@ -12,7 +12,7 @@ from agnav_common.frames import cross
 
 from . import earth, error_model as em
 from .lever_arm import antenna_to_imu_position, lever_velocity
-from .mechanization import T, c_cbar_ned, skew
+from .mechanization import T, _mat3, c_cbar_ned, skew
 
 ENU_TO_NED = np.array([[0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, -1.0]])
 
@@ -114,6 +114,69 @@ class GnssPosition:
         r = np.array(((q00 * m00 + q01 * m01, q00 * m10 + q01 * m11, 0.0),
                       (q10 * m00 + q11 * m01, q10 * m10 + q11 * m11, 0.0), (0.0, 0.0, p22)))
         return Linearized(self.name, np.array((r_x, r_y, snap.h - (gnss.alt + d2))), h.reshape(3, n_states), r)
+
+
+class _PositionColumns(dict):
+    """n_states -> flat indices of the position rows' nonzero entries in a 3 x n_states matrix."""
+
+    def __missing__(self, n):
+        cols = [(0, em.RX), (0, em.GAMMA), (0, em.BETA), (0, em.TX), (0, em.TY),
+                (1, em.RY), (1, em.GAMMA), (1, em.BETA), (1, em.TX), (1, em.TY), (2, em.H), (2, em.TX), (2, em.TY)]
+        self[n] = np.array([i * n + j for i, j in cols])
+        return self[n]
+
+
+_POS_COLS = _PositionColumns()
+
+
+class GnssVelocity:
+    """Velocity rows (5-6-16..23) with the ω x l lever-arm term (5-5-4); as in `GnssPosition` its attitude error is
+    modelled: in C the lever velocity T C_B^Cbar (ω x l) turns with the tilt, not with the azimuth (only the
+    antenna's velocity does), and ω carries the gyro bias error (else the position's γ' l, a heading rate seen
+    through the lever, is not matched by the velocity and pulls the gyro bias)."""
+
+    name = "velocity"
+
+    def __init__(self, lever_frd):
+        self.lever = np.asarray(lever_frd, dtype=float)
+
+    def linearize(self, snap, alpha, gnss, n_states):
+        """Rows on Python floats (the matrix form is in test/ins/test_scalar_paths.py)."""
+        ca, sa = math.cos(alpha), math.sin(alpha)
+        (n0, n1, n2), (n3, n4, n5), (n6, n7, n8) = snap.c_b_ned.tolist()
+        k = ((ca * n0 - sa * n3, ca * n1 - sa * n4, ca * n2 - sa * n5),       # C_NED^Cbar C_B^NED
+             (sa * n0 + ca * n3, sa * n1 + ca * n4, sa * n2 + ca * n5), (n6, n7, n8))
+        l0, l1, l2 = self.lever.tolist()
+        w0, w1, w2 = snap.omega_b.tolist()
+        x0, x1, x2 = w1 * l2 - w2 * l1, w2 * l0 - w0 * l2, w0 * l1 - w1 * l0    # ω x l
+        u0, u1, u2 = (r[0] * x0 + r[1] * x1 + r[2] * x2 for r in k)          # lever velocity in C-bar
+        e0, e1, e2 = gnss.vel_enu.tolist()
+        va0, va1, va2 = -sa * e0 + ca * e1, -ca * e0 - sa * e1, e2           # antenna velocity in C
+        b0, b1, b2 = ((r[1] * l2 - r[2] * l1, r[2] * l0 - r[0] * l2, r[0] * l1 - r[1] * l0) for r in k)  # K [l x]
+        h = np.zeros(3 * n_states)                        # ω = gyro - bias: BG columns -T K [l x]
+        h[_VEL_COLS[n_states]] = (1.0, -va1, -va0, 0.0, u2, -b0[0], -b0[1], -b0[2],
+                                  1.0, va0, -va1, -u2, 0.0, b1[0], b1[1], b1[2],
+                                  1.0, u1, u0, b2[0], b2[1], b2[2])
+        v0, v1, v2 = snap.v_ned.tolist()
+        z = (ca * v0 - sa * v1 - va0 + u0, -sa * v0 - ca * v1 - va1 - u1, -v2 - va2 - u2)
+        m = ((-sa, ca, 0.0), (-ca, -sa, 0.0), (0.0, 0.0, 1.0))                # ENU -> C
+        r = _mat3(_mat3(m, gnss.vel_cov_enu.tolist()), ((-sa, -ca, 0.0), (ca, -sa, 0.0), (0.0, 0.0, 1.0)))
+        return Linearized(self.name, np.array(z), h.reshape(3, n_states), np.array(r))
+
+
+class _VelocityColumns(dict):
+    """n_states -> flat indices of the velocity rows' nonzero entries in a 3 x n_states matrix."""
+
+    def __missing__(self, n):
+        bg = [em.BG.start + i for i in range(3)]
+        cols = ([(0, j) for j in (em.VX, em.GAMMA, em.BETA, em.TX, em.TY, *bg)]
+                + [(1, j) for j in (em.VY, em.GAMMA, em.BETA, em.TX, em.TY, *bg)]
+                + [(2, j) for j in (em.VZ, em.TX, em.TY, *bg)])
+        self[n] = np.array([i * n + j for i, j in cols])
+        return self[n]
+
+
+_VEL_COLS = _VelocityColumns()
 
 
 class _PositionColumns(dict):
