@@ -7,8 +7,10 @@ that a lagging subscriber in another process cannot take yet is held and retried
 node slows the replay instead of losing data.
 `external_drive`: no timer and no flow control; the owner calls play() (agnav run's deterministic replay, where
 agnav_common.local_bus delivers every message to the whole graph before publish() returns).
-Publishes /clock from the bag timeline (a recorded /clock is not replayed) and /tf_static transient-local; a bag
-/map_datum only when no node of the graph publishes one.
+Publishes /clock from the bag timeline (a recorded /clock is not replayed); /tf_static, /map_datum and every topic
+whose recorded publisher offered transient-local durability (the connection's offered_qos_profiles, e.g. a base
+station's /gnss/base/position) latched (transient-local, keep-last 1) for subscribers that join late; a bag's
+latched topic other than /tf_static only when no node of the graph publishes it.
 `progress` shows a tqdm bar on stderr when it is a terminal (nothing in files and CI logs).
 """
 import itertools
@@ -19,6 +21,7 @@ from dataclasses import dataclass, field
 from rclpy._rclpy_pybind11 import RCLError
 from rclpy.node import Node
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
+from rosbags.interfaces import QosDurability
 from rosgraph_msgs.msg import Clock
 from tqdm import tqdm
 
@@ -30,7 +33,7 @@ from agnav_common.qos import LATCHED_QOS, SENSOR_QOS
 from agnav_drivers.bag_source import BagSource
 from agnav_drivers.ros_types import message_class
 
-LATCHED_TOPICS = ("/tf_static", "/map_datum")
+LATCHED_TOPICS = ("/tf_static", "/map_datum")   # latched whatever the bag says (older bags lack offered QoS)
 # Keep-all writer: while a subscriber (keep-all, SENSOR_QOS) lags, its unacknowledged samples fill the writer's
 # history and publish() fails; the player then holds the message and retries instead of dropping it.
 REPLAY_QOS = QoSProfile(history=HistoryPolicy.KEEP_ALL, reliability=ReliabilityPolicy.RELIABLE)
@@ -55,6 +58,13 @@ class BagPlayerSettings:
     external_drive: bool = False  # no timer, no flow control: the owner calls play() (deterministic replay)
 
 
+def offered_latched(connection):
+    """True when the bag's publisher of `connection` offered transient-local durability (rosbag2
+    offered_qos_profiles; rosbags converts a ROS 1 latching publisher to it)."""
+    profiles = getattr(connection.ext, "offered_qos_profiles", None) or []
+    return any(getattr(q, "durability", None) == QosDurability.TRANSIENT_LOCAL for q in profiles)
+
+
 def parameter_entries():
     """[(name, default, description)] of every parameter (tools/gen_params.py writes the params file from it)."""
     return leaves(BagPlayerSettings())
@@ -75,6 +85,7 @@ class BagPlayerNode(Node):
         self.publishers_ = {}
         self.skipped = {}
         self.withheld = []  # latched bag topics the graph publishes itself
+        self.latched = set(LATCHED_TOPICS) | {c.topic for c in self.source.connections if offered_latched(c)}
         self._matched = set()  # topics that have had a subscriber
         self.published = 0
         self.received = 0
@@ -90,7 +101,7 @@ class BagPlayerNode(Node):
                 self.get_logger().warning(f"{topic}: type {msgtype} is not installed here; not replayed")
                 continue
             out = remap.get(topic, topic)
-            qos = LATCHED_QOS if topic in LATCHED_TOPICS else REPLAY_QOS
+            qos = LATCHED_QOS if topic in self.latched else REPLAY_QOS
             self.publishers_[topic] = self.create_publisher(cls, out, qos)
             if self.rate == 0.0 and not self.external:  # probes: count what the graph has received
                 self.create_subscription(cls, out, self._on_probe, SENSOR_QOS, raw=True)
@@ -142,7 +153,7 @@ class BagPlayerNode(Node):
         for topic, pub in list(self.publishers_.items()):
             if topic == "/tf_static" or self.count_publishers(pub.topic_name) <= 1:
                 continue
-            if topic not in LATCHED_TOPICS:
+            if topic not in self.latched:
                 raise RuntimeError(f"another node publishes {pub.topic_name}, which the bag replays as {topic}: "
                                    "remap the bag topic (player parameter remap, config bag_remap), or leave it "
                                    "out (exclude, agnav run --exclude)")
