@@ -182,5 +182,5 @@ class Switching:
                                          f"jump {tr['jump_sigma']:.2f} sigma ({tr['jump_m'] * 100:.1f} cm)")
         if self.mode == TIGHT and self.last_solution is not None:
             h.update(tight_dd=self.last_solution.n_dd, tight_fixed=self.last_solution.fixed,
-                     tight_slips=self.tight.stats["slips"])
+                     tight_slips=self.tight.stats["slips"], tight_height_aided=self.last_solution.height_aided)
         return h

@@ -3,7 +3,7 @@ double-difference ambiguities in metres, updated with DD code, DD phase and undi
 
 State: the 16 INS error states of agnav_fusion.ins (Table 5-6-1, closed loop: fed back and reset after each
 update), the crab state of the loosely coupled filter's non-holonomic constraint (same model, same updates), then
-c·δṫ_r [m/s] and the ambiguities λN [m] (total states, kept across updates; ambiguities.reindex when satellites
+c·δṫ_r [m/s], the height reference of gnss_raw.height_aid [m] and the ambiguities λN [m] (total states, kept across updates; ambiguities.reindex when satellites
 rise/set, slip or the reference changes). Observation models (x = computed − true):
 
     DD code   z = Δ_A − h(r̂)        = −G δr_E + n_A
@@ -18,7 +18,8 @@ starts at Δ_Φ − h(r̂) with a wide σ: the first phase update then gives it 
 cross-covariances with the INS states ([IMPL] of §7.9). Cycle slips: the loss-of-lock flag, Doppler–phase
 consistency per satellite, and a phase innovation beyond both 4σ and half a wavelength reset that ambiguity.
 Integer fixing (fixing.fix, LAMBDA + ratio) with hold: an accepted fix is applied as a tight measurement of the
-ambiguities. ROS-free; drive with add_imu / add_epoch in time order (epochs on IMU stamps).
+ambiguities. In poor geometry (few DDs) the antenna height is held to the reference learnt while it was good
+(gnss_raw.height_aid). ROS-free; drive with add_imu / add_epoch in time order (epochs on IMU stamps).
 """
 import copy
 import math
@@ -27,7 +28,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from agnav_fusion import kalman
-from agnav_fusion.gnss_raw import fixing
+from agnav_fusion.gnss_raw import fixing, height_aid
 from agnav_fusion.gnss_raw.ambiguities import reindex
 from agnav_fusion.gnss_raw.double_difference import DDConfig, form_double_differences
 from agnav_fusion.gnss_raw.ephemeris import satellite_states
@@ -38,7 +39,8 @@ from agnav_fusion.ins.constraints import CRAB
 from agnav_fusion.ins.lever_arm import lever_velocity
 
 DRIFT = CRAB + 1          # c·receiver clock drift [m/s]
-N_CORE = DRIFT + 1        # ambiguities follow
+HEIGHT = DRIFT + 1        # antenna height reference [m] (height_aid)
+N_CORE = HEIGHT + 1       # ambiguities follow
 POS_COLS = (em.RX, em.RY, em.H, em.TX, em.TY, em.GAMMA)
 VEL_COLS = (em.VX, em.VY, em.VZ, em.TX, em.TY, em.GAMMA)
 STEP = {em.RX: 1e-7, em.RY: 1e-7, em.H: 0.1, em.VX: 0.01, em.VY: 0.01, em.VZ: 0.01, em.TX: 1e-4, em.TY: 1e-4,
@@ -58,6 +60,7 @@ class TightConfig:
     hold: bool = True                 # an accepted fix is applied as a measurement of the ambiguities
     sigma_hold: float = 0.002         # m, the held ambiguities
     ratio_threshold: float = fixing.RATIO_THRESHOLD  # second-best / best squared norm to accept a fix
+    height: height_aid.HeightAidConfig = field(default_factory=height_aid.HeightAidConfig)  # poor-geometry aid
 
 
 @dataclass
@@ -69,6 +72,7 @@ class TightSolution:
     fixed: bool
     ratio: float
     slips: int                # ambiguities reset this epoch (flags, Doppler–phase, innovation)
+    height_aided: bool        # the antenna height held to the reference (poor geometry)
 
 
 def geodetic_to_ecef(lat, lon, h):
@@ -145,7 +149,8 @@ class TightFilter:
         self.keys, self.refs = [], {}
         self._cov_dt, self._nhc_t = 0.0, -math.inf
         self._prev_rover = None
-        self.stats = {"epochs": 0, "fixed": 0, "slips": 0}
+        self.stats = {"epochs": 0, "fixed": 0, "slips": 0, "height_aided": 0}
+        self._learn_height(self.antenna()[0], self.jacobians()[0])
 
     @classmethod
     def from_ins(cls, ekf, base_pos, config=None):
@@ -160,7 +165,7 @@ class TightFilter:
         """Hand-back (tight → loose, InsEkf.adopt): the INS part of the state and its covariance."""
         self._propagate()
         out = self.ins.export_state()
-        out["p"] = self.p[:N_CORE - 1, :N_CORE - 1].copy()
+        out["p"] = self.p[:DRIFT, :DRIFT].copy()
         return out
 
     @property
@@ -195,14 +200,16 @@ class TightFilter:
         if dt > 0.0:
             q = np.zeros(self.n - self.ins.n_states)
             q[DRIFT - self.ins.n_states] = self.c.sigma_drift_rate ** 2
+            q[HEIGHT - self.ins.n_states] = self.c.height.walk ** 2 * np.linalg.norm(self.mech.state.v_ned())
             q[N_CORE - self.ins.n_states:] = self.c.sigma_amb_rate ** 2
             self.p = self.ins.propagate_covariance(self.p, dt, q)
 
     def _apply(self, x, p):
-        """Closed loop: INS errors and crab fed back and reset (InsEkf.feedback); drift and ambiguities are
-        total states."""
+        """Closed loop: INS errors and crab fed back and reset (InsEkf.feedback); drift, height reference and
+        ambiguities are total states."""
         self.p = self.ins.feedback(x, p)
         self.x_drift += x[DRIFT]
+        self.x_height += x[HEIGHT]
         self.amb = self.amb + x[N_CORE:]
 
     def solution(self):
@@ -220,6 +227,11 @@ class TightFilter:
     def jacobians(self):
         """(J_pos, J_vel) 3 x n: antenna ECEF position / velocity error per state (antenna_jacobians)."""
         return antenna_jacobians(self.mech, self.lever, self.ins.omega_b, self.n)
+
+    def _learn_height(self, pos, jp):
+        """The height reference := the antenna height estimate (height_aid.learn)."""
+        self.x_height, a = height_aid.height_row(pos, jp)
+        self.p = height_aid.learn(self.p, HEIGHT, a)
 
     # ------------------------------------------------------------------ GNSS
     def _doppler_slips(self, rover):
@@ -305,14 +317,22 @@ class TightFilter:
                 blocks.append(rows)
         if not blocks:
             return None
+        n_dd = 0 if dd is None else len(dd)
+        height, a = height_aid.height_row(pos, jp)
+        aided = height_aid.poor_geometry(self.c.height, n_dd, a, self.p)
+        if aided:
+            blocks.append(height_aid.block(self.c.height, HEIGHT, self.x_height, height, a))
         self._update(blocks)
         fixed, ratio = self._fix(dd) if dd is not None and self.c.fix else (False, 0.0)
         self.stats["epochs"] += 1
         self.stats["fixed"] += int(fixed)
         self.stats["slips"] += slips
+        self.stats["height_aided"] += int(aided)
         pos = self.antenna()[0]
         jp = self.jacobians()[0]
-        return TightSolution(self.t, pos, jp @ self.p @ jp.T, 0 if dd is None else len(dd), fixed, ratio, slips)
+        if not aided:
+            self._learn_height(pos, jp)
+        return TightSolution(self.t, pos, jp @ self.p @ jp.T, n_dd, fixed, ratio, slips, aided)
 
     def _update(self, blocks):
         z = np.concatenate([b[0] for b in blocks])

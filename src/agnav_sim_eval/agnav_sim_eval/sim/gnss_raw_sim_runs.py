@@ -89,8 +89,9 @@ def coupled_settings(run, mounts):
                           initial_heading=wrap_angle(math.pi / 2 - run.truth.yaw[0] + math.pi))
 
 
-def run_coupled(run, nav, kind="three_sat", window=(120.0, 180.0), handover=60.0, seed=0, streams=None):
-    """CoupledRun of a SimRun (mems_field-style) with the sky of `kind` (see module docstring)."""
+def run_coupled(run, nav, kind="three_sat", window=(120.0, 180.0), handover=60.0, seed=0, streams=None, config=None):
+    """CoupledRun of a SimRun (mems_field-style) with the sky of `kind` (see module docstring); config: the tight
+    filter's TightConfig (default: TightConfig())."""
     from agnav_sim_eval.bench.ins import sim_streams
     raw = simulate_run_raw(run, nav, sky(kind, window, seed))
     gyro, accel, gnss, mounts = streams or sim_streams(run)
@@ -108,7 +109,7 @@ def run_coupled(run, nav, kind="three_sat", window=(120.0, 180.0), handover=60.0
         ekf.add_imu(t, gyro[i], accel[i])
         if tight is None:
             if t >= handover:
-                tight = TightFilter.from_ins(ekf, raw.base_pos, TightConfig())
+                tight = TightFilter.from_ins(ekf, raw.base_pos, config or TightConfig())
             continue
         tight.add_imu(t, gyro[i], accel[i])
         e = epochs.get(round(t * 100))
