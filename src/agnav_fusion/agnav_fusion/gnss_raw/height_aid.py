@@ -23,8 +23,7 @@ from agnav_fusion.gnss_raw.geometry import ecef_to_llh, enu_basis
 @dataclass
 class HeightAidConfig:
     min_dd: int = 4             # fewer DDs than this: the antenna height is held to the reference (0: never)
-    max_sigma: float = 0.1      # m, an antenna vertical sigma above this is also held; at most this (and enough
-    # DDs): the reference learnt from the estimate
+    max_sigma: float = 0.1      # m, a larger antenna vertical sigma is also held; else (enough DDs) learnt
     sigma: float = 0.03         # m, antenna height about the reference (terrain roughness, tilt x lever arm)
     walk: float = 0.01          # m/sqrt(m), random walk of the reference per metre driven (terrain slope)
 
@@ -52,6 +51,6 @@ def learn(p, k, a):
 
 def block(config, k, x_ref, height, a):
     """(z, H, R) of the height pseudo-measurement against the reference state k at value x_ref."""
-    h = -a.copy()
+    h = -a
     h[k] = -1.0
     return np.array([x_ref - height]), h[None, :], np.array([[config.sigma ** 2]])
