@@ -14,7 +14,8 @@ from agnav_fusion.ins.ekf import InsEkf, InsEkfSettings, NavSolution
 from agnav_fusion.ins.frames import FRD, Mounts, base_link_state, symmetric
 from agnav_fusion.ins.measurements import ENU_TO_NED, c_axes, ned_to_c
 from agnav_fusion.ins.mechanization import InsState, Mechanization, T, c_cbar_ned, rotation, skew
-from agnav_fusion.ins.solution import congruence3, mat3
+from agnav_fusion.ins.mechanization import mat3
+from agnav_fusion.ins.solution import congruence3
 
 RNG = np.random.default_rng(20261128)
 TD = np.array([1.0, -1.0, -1.0])

@@ -4,8 +4,7 @@ import math
 import numpy as np
 
 from . import error_model as em, quaternion
-from .mechanization import orthonormalize, rotation_rows
-from .solution import mat3
+from .mechanization import mat3, orthonormalize, rotation_rows
 
 
 def azimuth_error(gamma, beta):

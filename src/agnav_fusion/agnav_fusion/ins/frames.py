@@ -128,10 +128,19 @@ class FastPlane:
 
 def base_link_state(sol, mounts, plane, rate_var=(0.0, 0.0, 0.0)):
     """BaseLinkState from an IMU-point NavSolution: moved to base_link by the mount (5-5-3, ω x l), attitude and
-    covariances rotated to REP-103. plane: agnav_common LocalTangentPlane; rate_var: gyro white-noise variance."""
-    return _base_link(sol.t, sol.lat, sol.lon, sol.h, sol.v_ned.tolist(), sol.roll, sol.pitch, sol.heading,
-                      sol.omega_b.tolist(), sol.c_b_ned.tolist(), sol.pos_cov_enu.tolist(), sol.vel_cov_enu.tolist(),
-                      sol.att_var.tolist(), sol.gyro_bias_var.tolist(), mounts, plane, rate_var)
+    covariances rotated to REP-103. plane: agnav_common LocalTangentPlane; rate_var: gyro white-noise variance.
+    Once per IMU sample: Python floats throughout (the matrix form is in test/ins/test_scalar_paths.py)."""
+    c = sol.c_b_ned.tolist()
+    (c0, c1, c2), (c3, c4, c5), (c6, c7, c8) = c
+    att = sol.att_var.tolist()
+    position, velocity, pose3 = _moved(sol.lat, sol.lon, sol.h, c, sol.v_ned.tolist(), sol.omega_b.tolist(), mounts,
+                                       plane, sol.pos_cov_enu.tolist(), att)
+    # velocity covariance: R^T V R, R = NED_TO_ENU C diag(FRD) (base_link FLU -> ENU)
+    twist3 = _upper(congruence3(((c3, c0, -c6), (-c4, -c1, c7), (-c5, -c2, c8)), sol.vel_cov_enu.tolist()))
+    gyro = tuple(b + r for b, r in zip(sol.gyro_bias_var.tolist(), rate_var))
+    w0, w1, w2 = sol.omega_b.tolist()
+    return _state(sol.t, position, (sol.roll, -sol.pitch, wrap_angle(math.pi / 2 - sol.heading)), velocity,
+                  (w0, -w1, -w2), pose3, att, twist3, gyro)
 
 
 def ekf_base_link_state(ekf, mounts, plane, rate_var=(0.0, 0.0, 0.0)):
@@ -142,105 +151,83 @@ def ekf_base_link_state(ekf, mounts, plane, rate_var=(0.0, 0.0, 0.0)):
     (lat, lon, alpha), h = st.geo(), st.h
     (c0, c1, c2), (c3, c4, c5), (c6, c7, c8) = st.dcm_rows()     # C_B^Cbar
     ca, sa = math.cos(alpha), math.sin(alpha)
-    n0, n1, n2 = ca * c0 + sa * c3, ca * c1 + sa * c4, ca * c2 + sa * c5              # C_B^NED
-    n3, n4, n5 = -sa * c0 + ca * c3, -sa * c1 + ca * c4, -sa * c2 + ca * c5
-    l0, l1, l2 = mounts.lever_imu_frd.tolist()                      # base_link -> IMU; the lever is its negative
-    d0, d1, d2 = n0 * l0 + n1 * l1 + n2 * l2, n3 * l0 + n4 * l1 + n5 * l2, c6 * l0 + c7 * l1 + c8 * l2
-    rm, rn = radii(lat)
-    position = plane.to_enu(math.degrees(lat - d0 / (rm + h)), math.degrees(lon - d1 / ((rn + h) * math.cos(lat))),
-                            h + d2)
-    # body velocity: C^T (v_ned + C (ω x lever)), FLU
+    c_ned = ((ca * c0 + sa * c3, ca * c1 + sa * c4, ca * c2 + sa * c5),
+             (-sa * c0 + ca * c3, -sa * c1 + ca * c4, -sa * c2 + ca * c5), (c6, c7, c8))
     v0, v1, v2 = st.v.tolist()
     w0, w1, w2 = ekf.omega_b.tolist()
-    k0, k1, k2 = -(w1 * l2 - w2 * l1), -(w2 * l0 - w0 * l2), -(w0 * l1 - w1 * l0)
-    u0 = ca * v0 - sa * v1 + (n0 * k0 + n1 * k1 + n2 * k2)
-    u1 = -sa * v0 - ca * v1 + (n3 * k0 + n4 * k1 + n5 * k2)
-    u2 = -v2 + (c6 * k0 + c7 * k1 + c8 * k2)
-    velocity = (n0 * u0 + n3 * u1 + c6 * u2, -(n1 * u0 + n4 * u1 + c7 * u2), -(n2 * u0 + n5 * u1 + c8 * u2))
-    # position: A P[:2, :2] A^T (A = c_axes(alpha) (R + h)) + P_hh + the fix's drifting part + the lever turned by
-    # the attitude error, δp = φ x (C l), φ ~ N(0, diag(tilt, tilt, P_γγ)), arm = NED_TO_ENU [C l x], C l = -d
+    # position covariance: A P[:2, :2] A^T (A = c_axes(alpha) (R + h)) + P_hh + the fix's drifting part
+    rm, rn = radii(lat)
     big_r = math.sqrt(rm * rn) + h
     a00, a01, a10, a11 = ca * big_r, -sa * big_r, sa * big_r, ca * big_r
     (p00, p01), (p10, p11) = p[:2, :2].tolist()
     b00, b01, b10, b11 = a00 * p00 + a01 * p10, a00 * p01 + a01 * p11, a10 * p00 + a11 * p10, a10 * p01 + a11 * p11
     (f00, f01, f02), (f10, f11, f12), (f20, f21, f22) = ekf.fix_drift_cov.tolist()
+    pos = ((f00 + (b00 * a00 + b01 * a01), f01 + (b00 * a10 + b01 * a11), f02),
+           (f10 + (b10 * a00 + b11 * a01), f11 + (b10 * a10 + b11 * a11), f12), (f20, f21, f22 + p[em.H, em.H]))
     tx, ty, txy, tc = p[em.TX, em.TX], p[em.TY, em.TY], p[em.TX, em.TY], p[em.GAMMA, em.GAMMA]
     ta = 0.5 * (tx + ty) + math.hypot(0.5 * (tx - ty), txy)     # largest: roll and pitch are rotated C-axis tilts
-    s00, s01, s02 = d2 * ta * d2 + d0 * tc * d0, -(d0 * tc * d1), d2 * ta * d1
-    s11, s12, s22 = d2 * ta * d2 + d1 * tc * d1, d2 * ta * d0, d1 * ta * d1 + d0 * ta * d0
-    q00, q11 = f00 + (b00 * a00 + b01 * a01) + s00, f11 + (b10 * a10 + b11 * a11) + s11
-    q22 = f22 + p[em.H, em.H] + s22
-    q01 = ((f01 + (b00 * a10 + b01 * a11) + s01) + (f10 + (b10 * a00 + b11 * a01) + s01)) / 2
-    q02, q12 = ((f02 + s02) + (f20 + s02)) / 2, ((f12 + s12) + (f21 + s12)) / 2
+    position, velocity, pose3 = _moved(lat, lon, h, c_ned, (ca * v0 - sa * v1, -sa * v0 - ca * v1, -v2),
+                                       (w0, w1, w2), mounts, plane, pos, (ta, ta, tc))
     # twist: M P_v M^T, M = T C_B^Cbar^T T (C -> body FLU)
     rx, ry, *_, rz = p[em.VX:em.VZ + 1, em.VX:em.VZ + 1].tolist()      # rows VX, VY, .., VZ
-    (v00, v01, v02), (v10, v11, v12), (v20, v21, v22) = congruence3(
-        ((c0, -c3, -c6), (-c1, c4, c7), (-c2, c5, c8)),
-        ((rx[0], rx[1], rx[-1]), (ry[0], ry[1], ry[-1]), (rz[0], rz[1], rz[-1])))
-    v01, v02, v12 = (v01 + v10) / 2, (v02 + v20) / 2, (v12 + v21) / 2
+    twist3 = _upper(congruence3(((c0, -c3, -c6), (-c1, c4, c7), (-c2, c5, c8)),
+                                ((rx[0], rx[1], rx[-1]), (ry[0], ry[1], ry[-1]), (rz[0], rz[1], rz[-1]))))
     bg = em.BG.start
-    g0, g1, g2 = p[bg, bg] + rate_var[0], p[bg + 1, bg + 1] + rate_var[1], p[bg + 2, bg + 2] + rate_var[2]
+    gyro = (p[bg, bg] + rate_var[0], p[bg + 1, bg + 1] + rate_var[1], p[bg + 2, bg + 2] + rate_var[2])
     heading = math.remainder(math.atan2(c3, c0) - alpha, TWO_PI)
     rpy = (math.atan2(c7, c8), math.asin(max(-1.0, min(1.0, c6))), wrap_angle(math.pi / 2 - heading))
-    rates = (w0, -w1, -w2)
-    total = (sum(position) + sum(rpy) + sum(velocity) + sum(rates) + q00 + q11 + q22 + q01 + q02 + q12 + ta + tc
-             + v00 + v11 + v22 + v01 + v02 + v12 + g0 + g1 + g2)
-    pd = (positive_definite3(((q00, q01, q02), (q01, q11, q12), (q02, q12, q22))) and min(ta, tc) > 0
-          and positive_definite3(((v00, v01, v02), (v01, v11, v12), (v02, v12, v22))) and min(g0, g1, g2) > 0)
-    pose_cov = np.array((q00, q01, q02, 0.0, 0.0, 0.0, q01, q11, q12, 0.0, 0.0, 0.0, q02, q12, q22, 0.0, 0.0, 0.0,
-                         0.0, 0.0, 0.0, ta, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, ta, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, tc)
-                        ).reshape(6, 6)
-    twist_cov = np.array((v00, v01, v02, 0.0, 0.0, 0.0, v01, v11, v12, 0.0, 0.0, 0.0, v02, v12, v22, 0.0, 0.0, 0.0,
-                          0.0, 0.0, 0.0, g0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, g1, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, g2)
-                         ).reshape(6, 6)
-    state = BaseLinkState(ekf.t, np.array(position, dtype=float), np.array(rpy), pose_cov, np.array(velocity),
-                          np.array(rates), twist_cov, (math.isfinite(total), pd))
+    state = _state(ekf.t, position, rpy, velocity, (w0, -w1, -w2), pose3, (ta, ta, tc), twist3, gyro)
     return state, ekf.crab, p[CRAB, CRAB] if ekf.nhc is not None else math.inf
 
 
-def _base_link(t, lat0, lon0, h0, v_ned, roll, pitch, heading, omega_b, c, pos_cov, vel_cov, att_var, gyro_bias_var,
-               mounts, plane, rate_var):
-    """base_link_state on Python floats, 3-tuples and 3x3 row tuples (the matrix form is in
-    test/ins/test_scalar_paths.py)."""
+def _moved(lat, lon, h, c, v_ned, omega_b, mounts, plane, pos_cov, att_var):
+    """The IMU point's solution moved to base_link (5-5-3, ω x l) on floats: (map ENU position, body FLU velocity,
+    upper triangle of the position covariance with the mount lever turned by the attitude error). c: C_B^NED rows;
+    pos_cov: ENU 3x3 rows; att_var: roll, pitch, heading variances."""
     (c0, c1, c2), (c3, c4, c5), (c6, c7, c8) = c
     l0, l1, l2 = mounts.lever_imu_frd.tolist()                      # base_link -> IMU; the lever is its negative
     d0, d1, d2 = c0 * l0 + c1 * l1 + c2 * l2, c3 * l0 + c4 * l1 + c5 * l2, c6 * l0 + c7 * l1 + c8 * l2
-    rm, rn = radii(lat0)
-    lat, h = lat0 - d0 / (rm + h0), h0 + d2
-    position = plane.to_enu(math.degrees(lat), math.degrees(lon0 - d1 / ((rn + h0) * math.cos(lat0))), h)
-    # base_link FLU -> ENU: NED_TO_ENU C diag(FRD)
-    rbe = ((c3, -c4, -c5), (c0, -c1, -c2), (-c6, c7, c8))
+    rm, rn = radii(lat)
+    position = plane.to_enu(math.degrees(lat - d0 / (rm + h)), math.degrees(lon - d1 / ((rn + h) * math.cos(lat))),
+                            h + d2)
     w0, w1, w2 = omega_b
     k0, k1, k2 = -(w1 * l2 - w2 * l1), -(w2 * l0 - w0 * l2), -(w0 * l1 - w1 * l0)     # ω x lever
     n0, n1, n2 = v_ned
     n0, n1, n2 = n0 + (c0 * k0 + c1 * k1 + c2 * k2), n1 + (c3 * k0 + c4 * k1 + c5 * k2), n2 + (c6 * k0 + c7 * k1 + c8 * k2)
     velocity = (c0 * n0 + c3 * n1 + c6 * n2, -(c1 * n0 + c4 * n1 + c7 * n2), -(c2 * n0 + c5 * n1 + c8 * n2))
-    # the mount lever turned by an attitude error moves base_link: δp = φ x (C l), φ ~ N(0, diag(att_var));
-    # arm = NED_TO_ENU [C l x] with C l = -d
-    u0, u1, u2 = -d0, -d1, -d2
+    # δp = φ x (C l), φ ~ N(0, diag(att_var)): arm = NED_TO_ENU [C l x] with C l = -d
     ta, tb, tc = att_var
     (e00, e01, e02), (e10, e11, e12), (e20, e21, e22) = pos_cov
-    s00, s01, s02 = u2 * ta * u2 + u0 * tc * u0, -(u0 * tc * u1), u2 * ta * u1
-    s11, s12, s22 = u2 * tb * u2 + u1 * tc * u1, u2 * tb * u0, u1 * ta * u1 + u0 * tb * u0
-    p00, p11, p22 = e00 + s00, e11 + s11, e22 + s22
-    p01, p02, p12 = ((e01 + s01) + (e10 + s01)) / 2, ((e02 + s02) + (e20 + s02)) / 2, ((e12 + s12) + (e21 + s12)) / 2
-    (v00, v01, v02), (v10, v11, v12), (v20, v21, v22) = congruence3(tuple(zip(*rbe)), vel_cov)
-    v01, v02, v12 = (v01 + v10) / 2, (v02 + v20) / 2, (v12 + v21) / 2          # exactly symmetric
-    g0, g1, g2 = (b + r for b, r in zip(gyro_bias_var, rate_var))
-    rpy = (roll, -pitch, wrap_angle(math.pi / 2 - heading))
-    rates = (w0, -w1, -w2)
-    total = (sum(position) + sum(rpy) + sum(velocity) + sum(rates) + p00 + p11 + p22 + p01 + p02 + p12 + ta + tb + tc
-             + v00 + v11 + v22 + v01 + v02 + v12 + g0 + g1 + g2)
-    pd = (positive_definite3(((p00, p01, p02), (p01, p11, p12), (p02, p12, p22))) and min(ta, tb, tc) > 0
-          and positive_definite3(((v00, v01, v02), (v01, v11, v12), (v02, v12, v22))) and min(g0, g1, g2) > 0)
-    pose_cov = np.array((p00, p01, p02, 0.0, 0.0, 0.0, p01, p11, p12, 0.0, 0.0, 0.0, p02, p12, p22, 0.0, 0.0, 0.0,
-                         0.0, 0.0, 0.0, ta, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, tb, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, tc)
-                        ).reshape(6, 6)
-    twist_cov = np.array((v00, v01, v02, 0.0, 0.0, 0.0, v01, v11, v12, 0.0, 0.0, 0.0, v02, v12, v22, 0.0, 0.0, 0.0,
-                          0.0, 0.0, 0.0, g0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, g1, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, g2)
-                         ).reshape(6, 6)
-    return BaseLinkState(t, np.array(position, dtype=float), np.array(rpy), pose_cov, np.array(velocity),
-                         np.array(rates), twist_cov, (math.isfinite(total), pd))
+    s01, s02, s12 = -(d0 * tc * d1), d2 * ta * d1, d2 * tb * d0
+    return position, velocity, (e00 + (d2 * ta * d2 + d0 * tc * d0), ((e01 + s01) + (e10 + s01)) / 2,
+                                ((e02 + s02) + (e20 + s02)) / 2, e11 + (d2 * tb * d2 + d1 * tc * d1),
+                                ((e12 + s12) + (e21 + s12)) / 2, e22 + (d1 * ta * d1 + d0 * tb * d0))
+
+
+def _upper(m):
+    """Upper triangle (00, 01, 02, 11, 12, 22) of the symmetric part of 3x3 rows."""
+    (m00, m01, m02), (m10, m11, m12), (m20, m21, m22) = m
+    return m00, (m01 + m10) / 2, (m02 + m20) / 2, m11, (m12 + m21) / 2, m22
+
+
+def _state(t, position, rpy, velocity, rates, pose3, att, twist3, gyro):
+    """BaseLinkState of floats; pose3 / twist3: upper triangles of the position and velocity covariances, att / gyro:
+    the attitude and rate variances; with its finite and positive-definite checks."""
+    p00, p01, p02, p11, p12, p22 = pose3
+    v00, v01, v02, v11, v12, v22 = twist3
+    total = sum(position) + sum(rpy) + sum(velocity) + sum(rates) + sum(pose3) + sum(att) + sum(twist3) + sum(gyro)
+    pd = (positive_definite3(((p00, p01, p02), (p01, p11, p12), (p02, p12, p22))) and min(att) > 0
+          and positive_definite3(((v00, v01, v02), (v01, v11, v12), (v02, v12, v22))) and min(gyro) > 0)
+    return BaseLinkState(t, np.array(position, dtype=float), np.array(rpy), _cov6(pose3, att), np.array(velocity),
+                         np.array(rates), _cov6(twist3, gyro), (math.isfinite(total), pd))
+
+
+def _cov6(upper, diagonal):
+    """6x6 covariance: a symmetric 3x3 block (upper triangle) and a diagonal one."""
+    a00, a01, a02, a11, a12, a22 = upper
+    d0, d1, d2 = diagonal
+    return np.array((a00, a01, a02, 0.0, 0.0, 0.0, a01, a11, a12, 0.0, 0.0, 0.0, a02, a12, a22, 0.0, 0.0, 0.0,
+                     0.0, 0.0, 0.0, d0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, d1, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, d2)).reshape(6, 6)
 
 
 def symmetric(cov):

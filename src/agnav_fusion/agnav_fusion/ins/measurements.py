@@ -8,11 +8,9 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from agnav_common.frames import cross
 
 from . import earth, error_model as em
-from .lever_arm import antenna_to_imu_position, lever_velocity
-from .mechanization import T, _mat3, c_cbar_ned, skew
+from .mechanization import T, c_cbar_ned, mat3
 
 ENU_TO_NED = np.array([[0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, -1.0]])
 
@@ -116,19 +114,6 @@ class GnssPosition:
         return Linearized(self.name, np.array((r_x, r_y, snap.h - (gnss.alt + d2))), h.reshape(3, n_states), r)
 
 
-class _PositionColumns(dict):
-    """n_states -> flat indices of the position rows' nonzero entries in a 3 x n_states matrix."""
-
-    def __missing__(self, n):
-        cols = [(0, em.RX), (0, em.GAMMA), (0, em.BETA), (0, em.TX), (0, em.TY),
-                (1, em.RY), (1, em.GAMMA), (1, em.BETA), (1, em.TX), (1, em.TY), (2, em.H), (2, em.TX), (2, em.TY)]
-        self[n] = np.array([i * n + j for i, j in cols])
-        return self[n]
-
-
-_POS_COLS = _PositionColumns()
-
-
 class GnssVelocity:
     """Velocity rows (5-6-16..23) with the ω x l lever-arm term (5-5-4); as in `GnssPosition` its attitude error is
     modelled: in C the lever velocity T C_B^Cbar (ω x l) turns with the tilt, not with the azimuth (only the
@@ -160,58 +145,25 @@ class GnssVelocity:
         v0, v1, v2 = snap.v_ned.tolist()
         z = (ca * v0 - sa * v1 - va0 + u0, -sa * v0 - ca * v1 - va1 - u1, -v2 - va2 - u2)
         m = ((-sa, ca, 0.0), (-ca, -sa, 0.0), (0.0, 0.0, 1.0))                # ENU -> C
-        r = _mat3(_mat3(m, gnss.vel_cov_enu.tolist()), ((-sa, -ca, 0.0), (ca, -sa, 0.0), (0.0, 0.0, 1.0)))
+        r = mat3(mat3(m, gnss.vel_cov_enu.tolist()), ((-sa, -ca, 0.0), (ca, -sa, 0.0), (0.0, 0.0, 1.0)))
         return Linearized(self.name, np.array(z), h.reshape(3, n_states), np.array(r))
 
 
-class _VelocityColumns(dict):
-    """n_states -> flat indices of the velocity rows' nonzero entries in a 3 x n_states matrix."""
+class _Columns(dict):
+    """n_states -> flat indices of the (row, column) entries in a matrix of n_states columns."""
+
+    def __init__(self, entries):
+        super().__init__()
+        self.entries = entries
 
     def __missing__(self, n):
-        bg = [em.BG.start + i for i in range(3)]
-        cols = ([(0, j) for j in (em.VX, em.GAMMA, em.BETA, em.TX, em.TY, *bg)]
-                + [(1, j) for j in (em.VY, em.GAMMA, em.BETA, em.TX, em.TY, *bg)]
-                + [(2, j) for j in (em.VZ, em.TX, em.TY, *bg)])
-        self[n] = np.array([i * n + j for i, j in cols])
+        self[n] = np.array([i * n + j for i, j in self.entries])
         return self[n]
 
 
-_VEL_COLS = _VelocityColumns()
-
-
-class _PositionColumns(dict):
-    """n_states -> flat indices of the position rows' nonzero entries in a 3 x n_states matrix."""
-
-    def __missing__(self, n):
-        cols = [(0, em.RX), (0, em.GAMMA), (0, em.BETA), (0, em.TX), (0, em.TY),
-                (1, em.RY), (1, em.GAMMA), (1, em.BETA), (1, em.TX), (1, em.TY), (2, em.H), (2, em.TX), (2, em.TY)]
-        self[n] = np.array([i * n + j for i, j in cols])
-        return self[n]
-
-
-_POS_COLS = _PositionColumns()
-
-
-class GnssVelocity:
-    """Velocity rows (5-6-16..23) with the ω x l lever-arm term (5-5-4); as in `GnssPosition` its attitude error is
-    modelled: in C the lever velocity T C_B^Cbar (ω x l) turns with the tilt, not with the azimuth (only the
-    antenna's velocity does), and ω carries the gyro bias error (else the position's γ' l, a heading rate seen
-    through the lever, is not matched by the velocity and pulls the gyro bias)."""
-
-    name = "velocity"
-
-    def __init__(self, lever_frd):
-        self.lever = np.asarray(lever_frd, dtype=float)
-
-    def linearize(self, snap, alpha, gnss, n_states):
-        m = ned_to_c(alpha)
-        va = m @ ENU_TO_NED @ gnss.vel_enu                           # antenna velocity in C
-        u = c_cbar_ned(alpha).T @ lever_velocity(self.lever, snap.c_b_ned, snap.omega_b)   # C-bar
-        h = np.zeros((3, n_states))
-        h[0, [em.VX, em.GAMMA, em.BETA]] = 1.0, -va[1], -va[0]
-        h[1, [em.VY, em.GAMMA, em.BETA]] = 1.0, va[0], -va[1]
-        h[2, em.VZ] = 1.0
-        h[:, em.TX], h[:, em.TY] = T @ cross(u, (1.0, 0.0, 0.0)), -T @ cross(u, (0.0, 1.0, 0.0))
-        h[:, em.BG] = -T @ c_cbar_ned(alpha).T @ snap.c_b_ned @ skew(self.lever)    # ω = gyro - bias
-        cov = ENU_TO_NED @ gnss.vel_cov_enu @ ENU_TO_NED.T
-        return Linearized(self.name, m @ snap.v_ned - va + T @ u, h, m @ cov @ m.T)
+_BG = [em.BG.start + i for i in range(3)]
+_POS_COLS = _Columns([(0, em.RX), (0, em.GAMMA), (0, em.BETA), (0, em.TX), (0, em.TY),
+                      (1, em.RY), (1, em.GAMMA), (1, em.BETA), (1, em.TX), (1, em.TY), (2, em.H), (2, em.TX), (2, em.TY)])
+_VEL_COLS = _Columns([(0, j) for j in (em.VX, em.GAMMA, em.BETA, em.TX, em.TY, *_BG)]
+                     + [(1, j) for j in (em.VY, em.GAMMA, em.BETA, em.TX, em.TY, *_BG)]
+                     + [(2, j) for j in (em.VZ, em.TX, em.TY, *_BG)])

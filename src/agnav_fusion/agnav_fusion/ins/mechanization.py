@@ -58,14 +58,15 @@ def orthonormalize(c):
             return np.array(x)
         m = ((1.5 - 0.5 * g00, -0.5 * g01, -0.5 * g02), (-0.5 * g01, 1.5 - 0.5 * g11, -0.5 * g12),
              (-0.5 * g02, -0.5 * g12, 1.5 - 0.5 * g22))
-        x = _mat3(x, m)
+        x = mat3(x, m)
         if err < 1e-12:        # the next step's change (~err^2) is below rounding
             return np.array(x)
     u, _, vt = np.linalg.svd(np.asarray(c, dtype=float))
     return u @ vt
 
 
-def _mat3(a, b):
+def mat3(a, b):
+    """a @ b of 3x3 row tuples (Python floats)."""
     (a0, a1, a2), (a3, a4, a5), (a6, a7, a8) = a
     (b0, b1, b2), (b3, b4, b5), (b6, b7, b8) = b
     return ((a0 * b0 + a1 * b3 + a2 * b6, a0 * b1 + a1 * b4 + a2 * b7, a0 * b2 + a1 * b5 + a2 * b8),
