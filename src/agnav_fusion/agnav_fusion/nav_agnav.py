@@ -35,6 +35,7 @@ class AgnavEstimator:
         self.still = False         # the latest fix says the vehicle stands still
         self.fix_speed = None      # (epoch, EKF speed after the fix): the fixes' own acceleration
         self.last_fix_t = math.inf  # epoch of the latest fix, accepted or not
+        self.accel_miss = 0.0      # m/s^2, acceleration the speed model missed before the latest fix
         self.alpha = np.zeros(3)   # rad/s^2, low-passed angular acceleration (lever-arm acceleration)
         self.fix_accel = 0.0       # m/s^2, speed change between fixes: compensates the inclinometer in accelerometer
         #                            mode (the accelerometer's own along-track reading holds the pitch: circular)
@@ -130,25 +131,30 @@ class AgnavEstimator:
         still_below = max(s.stationary_speed, 2.0 * s.velocity_sigma) if doppler else s.stationary_speed
         creeping = doppler or self.ekf.x is None or abs(self.ekf.x[IV]) < still_below
         was_still, self.still = self.still, speed is not None and speed < still_below and creeping
-        self._check_tilt_compensation(k, speed, vel_var)
+        self.accel_miss = self._check_speed_model(k, t, speed, vel_var, doppler)
         accepted = self._fuse_fix(k, t, xy, R, v_ref, vel_var, speed, was_still and not self.still, doppler,
                                   differenced)
         self.last_fix_t = t
         return accepted
 
-    def _check_tilt_compensation(self, k, speed, vel_var):
-        """The GNSS speed tells whether the acceleration removed from the inclinometers since the last epoch was
-        right: beyond doubt wrong (a start, a braking the speed model had not seen), the attitude filters go back to
-        their gyro-only copies; agreeing with the speed model, the copies restart here; in doubt, they wait."""
-        nav = self.m.history[k].nav
+    def _check_speed_model(self, k, t, speed, vel_var, doppler):
+        """The GNSS speed tells whether the speed model's acceleration since the last epoch was right (it is also
+        what was removed from the inclinometers): beyond doubt wrong (a start, a braking), the attitude filters go
+        back to their gyro-only copies; agreeing, the copies restart here; in doubt, they wait. -> the acceleration
+        a receiver (Doppler) speed says the model missed (m/s^2) when not agreeing, else 0: its square joins the A
+        state's variance (a fix-difference speed lags by half its baseline: no such news)."""
+        s, nav = self.m.settings, self.m.history[k].nav
         if speed is None or vel_var is None or nav is None:
-            return
-        miss = abs(speed - nav[0][IV]) / math.sqrt(vel_var + nav[1][IV, IV])
+            return 0.0
+        miss = speed - nav[0][IV]
+        sigmas = abs(miss) / math.sqrt(vel_var + nav[1][IV, IV])
         for tilt in (self.roll_filter, self.pitch_filter):
-            if miss > self.m.settings.tilt_revert_sigma:
+            if sigmas > s.tilt_revert_sigma:
                 tilt.revert()
-            if miss <= self.m.settings.tilt_keep_sigma or miss > self.m.settings.tilt_revert_sigma:
+            if sigmas <= s.tilt_keep_sigma or sigmas > s.tilt_revert_sigma:
                 tilt.checkpoint()
+        news = doppler and sigmas > s.tilt_keep_sigma and t > self.last_fix_t
+        return miss / min(t - self.last_fix_t, 1.0) if news else 0.0
 
     def _fuse_fix(self, k, t, xy, R, v_ref, vel_var, speed, started, doppler, differenced):
         s, hist, ekf = self.m.settings, self.m.history, self.ekf
@@ -161,7 +167,7 @@ class AgnavEstimator:
             ekf.x, ekf.P = snap.nav[0].copy(), snap.nav[1].copy()
             if started:  # the gyro bias learnt standing still shifts once the vehicle moves; the start's
                 ekf.P[IB, IB] += s.motion_bias_sigma ** 2  # acceleration is news to the A state
-                ekf.P[IA, IA] += s.start_accel_sigma ** 2
+            ekf.P[IA, IA] += max(self.accel_miss ** 2, s.start_accel_sigma ** 2 if started else 0.0)
             if ekf.bias_dropped:
                 ekf.restart_bias()
         if first:
