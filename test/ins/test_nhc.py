@@ -224,3 +224,21 @@ def test_crab_mean_slides_downhill_once_aligned():
     assert s.crab_mean(math.radians(6.0)) == pytest.approx(0.2 * math.sin(math.radians(6.0)))   # right side down
     assert s.crab_mean(-math.radians(6.0)) < 0.0                                                # left side down
     assert s.crab_mean(math.radians(6.0), heading_sigma=math.radians(20.0)) == 0.0              # still aligning
+
+
+def test_realigns_standing_still_after_fixes_stay_rejected():
+    """The same persisting jump while the vehicle stands still: re-aligned on the heading it keeps (no course)."""
+    traj = sy.drive([(4.0, 0.5, 0.0), (40.0, 0.0, 0.0), (4.0, -0.5, 0.0), (60.0, 0.0, 0.0)], heading0=1.0)
+    gyro, accel = sy.ideal_imu(traj)
+    rng = np.random.default_rng(17)
+    g, a, _, _ = sy.MemsGrade().corrupt(gyro, accel, 0.01, rng)
+    gnss = sy.gnss_samples(traj, gyro, LEVER, sy.RTK_5HZ, rng)
+    for _, sample in gnss:
+        if sample.t >= 55.0:
+            sample.lat += 30.0 / 6.37e6
+    ekf = InsEkf(InsEkfSettings(lever_gnss_frd=LEVER))
+    err = sy.run_ins(ekf, traj, g, a, gnss)
+    assert ekf.stats["rejected"].get("reinitialized", 0) >= 1
+    late = err.t > 90.0
+    assert np.linalg.norm(err.pos[late, :2] - [30.0, 0.0], axis=1).max() < 0.2
+    assert np.all(np.linalg.norm(err.pos[late, :2] - [30.0, 0.0], axis=1) < 3.0 * err.pos_sigma[late])

@@ -355,7 +355,7 @@ class InsEkf:
                 self._first_reject_t = None
                 heading = self.mech.state.euler()[2]
                 if not self._initialize(g, heading, 4.0):     # moving: from the course, else the heading kept
-                    self._initialize(g, heading, max(hv, self.s.align_fix_course_sigma ** 2))
+                    self._initialize(g, heading, max(self.p[em.GAMMA, em.GAMMA], self.s.align_fix_course_sigma ** 2))
                 return
         if not accepted:
             return
