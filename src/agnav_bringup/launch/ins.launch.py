@@ -34,6 +34,7 @@ def generate_launch_description():
                  'initial_yaw': 0.0,
                  'initial_yaw_sigma': 0.0,
                  'gnss_timeout': 1.5,
+                 'mount_tilt_sigma': 0.001745,
                  'ekf.gate_probability': 0.9999,
                  'ekf.align_speed': 0.5,
                  'ekf.nhc.enabled': True,

@@ -37,6 +37,8 @@ class InsNavSettings:
     imu_max_jump: float = 0.5              # s, a larger forward step of the IMU stamps needs 3 more to be believed
     gnss_overdue_periods: float = 1.5      # fix periods without a fix: gnss_overdue (diagnostics)
     imu_overdue_periods: float = 20.0      # IMU periods without a sample at a GNSS epoch: imu_overdue (diagnostics)
+    mount_tilt_sigma: float = math.radians(0.1)   # rad, IMU roll/pitch mount error beyond TF (bracket levelled by
+                                           # hand): unobservable (the filter levels the IMU), added to roll/pitch var
     ekf: InsEkfSettings = field(default_factory=InsEkfSettings)
     guard: InputGuardSettings = field(default_factory=lambda: InputGuardSettings(
         max_stamp_jump=1.0, min_fix_sigma=0.01, diagnostic_window=5.0))
@@ -72,6 +74,7 @@ class InsNavigation:
     def set_mounts(self, gnss_lever, incl_lever, imu_lever):
         """base_link -> gnss_link and -> imu_link translations (base_link FLU, m); starts the filter."""
         self.mounts = Mounts.from_tf(imu_lever, np.eye(3), gnss_lever)
+        self.mounts.tilt_var = self.settings.mount_tilt_sigma ** 2
         self.settings.ekf.lever_gnss_frd = tuple(self.mounts.lever_gnss_frd)
         self.settings.ekf.lever_base_frd = tuple(-self.mounts.lever_imu_frd)
         self.ekf = InsEkf(self.settings.ekf)
