@@ -81,3 +81,25 @@ def test_a_start_seen_late_does_not_bend_the_gyro_bias():
         errors[hold] = (math.degrees(abs(kf.bias - bias)), math.degrees(abs(kf.angle)))
     assert errors[True][0] < 0.02 and errors[True][1] < 0.1
     assert errors[False][0] > 3 * errors[True][0] and errors[False][1] > 3 * errors[True][1]
+
+
+def test_the_float_filter_equals_its_matrix_form():
+    """AttitudeKF's float steps against kalman.predict / kalman.update_state on the same inputs."""
+    from agnav_fusion import kalman
+    rng = np.random.default_rng(8)
+    s = AttitudeKFSettings(identify_tau=False, tau=0.7)
+    kf = AttitudeKF(s)
+    kf.update(0.0, 0.01, DT)
+    for i in range(500):
+        rate, incl = rng.normal(0.0, 0.05), (rng.normal(0.0, 0.02) if i % 3 else None)
+        x, P = kf.x, kf.P
+        a = 1.0 - math.exp(-DT / s.tau)
+        F = np.array([[1.0, -DT, 0.0], [0.0, 1.0, 0.0], [a, 0.0, 1.0 - a]])
+        x, P = kalman.predict(x, P, F, np.diag([s.gyro_noise ** 2 * DT, s.bias_walk ** 2 * DT, 0.0]))
+        x[0] += rate * DT
+        if incl is not None:
+            r = s.incl_noise ** 2 + (s.scale_sigma * incl) ** 2 * 2.0 * s.tau / DT
+            x, P, _ = kalman.update_state(x, P, 2, incl, r, s.gate)
+        kf.update(rate, incl, DT)
+        np.testing.assert_allclose(kf.x, x, rtol=0, atol=1e-12)
+        np.testing.assert_allclose(kf.P, P, rtol=0, atol=1e-15)

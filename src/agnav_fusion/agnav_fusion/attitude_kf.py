@@ -16,7 +16,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from agnav_fusion import kalman
 from agnav_fusion.inclinometer_lag import LagIdentifier, LagIdentifierSettings
 
 LAG_MIN_TAU = 0.1  # s; a shorter configured time constant means "no lag": not identified
@@ -41,84 +40,115 @@ class AttitudeKFSettings:
 
 
 class AttitudeKF:
-    """Linear KF of one tilt axis; update() per IMU sample, with or without an inclinometer reading."""
+    """Linear KF of one tilt axis; update() per IMU sample, with or without an inclinometer reading. The 3 states and
+    the 6 distinct covariance entries are plain floats (the per-sample path; `x`, `P` give them as arrays)."""
 
     def __init__(self, settings=None):
         self.settings = settings or AttitudeKFSettings()
-        self.x = None
-        self.P = None
+        self._x = None   # (angle, bias, lagged angle)
+        self._p = None   # (P00, P01, P02, P11, P12, P22)
         self._acc_lag = 0.0
         self.rejected = 0
         self.log = None  # list of (F, x_pred, P_pred, x_filt, P_filt) per step, for kalman.smooth_log
         s = self.settings
         self.lag = LagIdentifier(s.tau, s.lag) if s.identify_tau and s.tau >= LAG_MIN_TAU else None
-        self._gyro_only = None  # [x, P, age] since the last checkpoint, propagated by the gyro alone
+        self._gyro_only = None  # [x, p, age] since the last checkpoint, propagated by the gyro alone
 
     def _init(self, incl):
         s = self.settings
-        self.x = np.array([incl, 0.0, incl])
-        self.P = np.diag([s.init_angle_sigma ** 2, s.init_bias_sigma ** 2, s.init_angle_sigma ** 2])
+        angle, bias = s.init_angle_sigma ** 2, s.init_bias_sigma ** 2
+        self._x, self._p = (incl, 0.0, incl), (angle, 0.0, 0.0, bias, 0.0, angle)
 
     def update(self, rate, incl, dt, accel_error=0.0, accel_var=0.0):
         """Propagate with the gyro rate over dt, then fuse incl (rad, or None) whose acceleration error
         accel_error (rad, the unlagged a/g term the inclinometer adds; variance accel_var) is removed through the
         same lag."""
         s = self.settings
-        if self.x is None:
+        if self._x is None:
             if incl is None:
                 return None
             self._init(incl)
             self._acc_lag = accel_error
-        tau_id = self.lag.update(rate - self.x[1], incl, accel_error, dt) if self.lag else None
+        tau_id = self.lag.update(rate - self._x[1], incl, accel_error, dt) if self.lag else None
         tau, tau_rel = (tau_id, s.tau_rel_identified) if tau_id else (s.tau, s.tau_rel_sigma)
         a = 1.0 - math.exp(-dt / tau) if tau > 0 else 1.0  # exact first-order lag: stable for any dt (IMU gaps)
-        F = np.array([[1.0, -dt, 0.0], [0.0, 1.0, 0.0], [a, 0.0, 1.0 - a]])
-        x, P = self._predict(self.x, self.P, F, rate, dt)
+        x, p = self._predict(self._x, self._p, a, rate, dt)
         if self._gyro_only is not None:
             age = self._gyro_only[2] + dt
-            self._gyro_only = [*self._predict(*self._gyro_only[:2], F, rate, dt), age] if age <= s.gyro_hold else None
+            self._gyro_only = [*self._predict(*self._gyro_only[:2], a, rate, dt), age] if age <= s.gyro_hold else None
         lag_miss = tau_rel * (accel_error - self._acc_lag)
         self._acc_lag += a * (accel_error - self._acc_lag)
-        x_pred, P_pred = x, P
+        x_pred, p_pred = x, p
         if incl is not None:
             # coloured errors (correlated over the lag): as white noise of the same low-frequency density
             coloured = accel_var + lag_miss ** 2 + (s.scale_sigma * incl) ** 2
             r = s.incl_noise ** 2 + coloured * 2.0 * max(tau, dt) / max(dt, 1e-3)
-            x, P, d2 = kalman.update_state(x, P, 2, incl - self._acc_lag, r, s.gate)
-            self.rejected += d2 > s.gate
-        self.x, self.P = x, P
+            x, p = self._update_lagged(x, p, incl - self._acc_lag, r)
+        self._x, self._p = x, p
         if self.log is not None:
-            self.log.append((F, x_pred, P_pred, x, P))
+            F = np.array([[1.0, -dt, 0.0], [0.0, 1.0, 0.0], [a, 0.0, 1.0 - a]])
+            self.log.append((F, np.array(x_pred), _matrix(p_pred), self.x, self.P))
         return x[0]
 
-    def _predict(self, x, P, F, rate, dt):
-        s = self.settings
-        x, P = kalman.predict(x, P, F, 0.0)
-        P[0, 0] += s.gyro_noise ** 2 * dt
-        P[1, 1] += s.bias_walk ** 2 * dt
-        x[0] += rate * dt
-        return x, P
+    def _predict(self, x, p, a, rate, dt):
+        """x <- F x + (rate dt, 0, 0), P <- F P F^T + Q for F = [[1, -dt, 0], [0, 1, 0], [a, 0, 1 - a]]."""
+        s, b = self.settings, 1.0 - a
+        p00, p01, p02, p11, p12, p22 = p
+        r00, r02 = p00 - dt * p01, p02 - dt * p12       # (F P) row 0, columns 0 and 2
+        r20 = a * p00 + b * p02                         # (F P) row 2, column 0
+        q00 = r00 - dt * (p01 - dt * p11) + s.gyro_noise ** 2 * dt
+        q01 = p01 - dt * p11
+        q02 = a * r00 + b * r02
+        q12 = a * p01 + b * p12
+        q22 = a * r20 + b * (a * p02 + b * p22)
+        x0, x1, x2 = x
+        return (x0 - dt * x1 + rate * dt, x1, a * x0 + b * x2), (q00, q01, q02, p11 + s.bias_walk ** 2 * dt, q12, q22)
+
+    def _update_lagged(self, x, p, z, r):
+        """The reading z (variance r) of the lagged angle, gated (a refused reading is counted)."""
+        p00, p01, p02, p11, p12, p22 = p
+        S = p22 + r
+        y = z - x[2]
+        if y * y / S > self.settings.gate:
+            self.rejected += 1
+            return x, p
+        k0, k1, k2 = p02 / S, p12 / S, p22 / S
+        return ((x[0] + k0 * y, x[1] + k1 * y, x[2] + k2 * y),
+                (p00 - k0 * p02, p01 - k0 * p12, p02 - k0 * p22, p11 - k1 * p12, p12 - k1 * p22, p22 - k2 * p22))
 
     def checkpoint(self):
         """Keep a gyro-only copy from here (at a GNSS epoch that confirmed the acceleration compensation)."""
-        if self.x is not None:
-            self._gyro_only = [self.x.copy(), self.P.copy(), 0.0]
+        if self._x is not None:
+            self._gyro_only = [self._x, self._p, 0.0]
 
     def revert(self):
         """The acceleration removed from the readings since the checkpoint was wrong (a start or a braking seen late
         by the GNSS): the gyro-only copy replaces the filter, so the gyro bias is not bent by it."""
         if self._gyro_only is not None:
-            self.x, self.P = self._gyro_only[:2]
+            self._x, self._p = self._gyro_only[:2]
             self._gyro_only = None
 
     @property
+    def x(self):
+        return None if self._x is None else np.array(self._x)
+
+    @property
+    def P(self):
+        return None if self._p is None else _matrix(self._p)
+
+    @property
     def angle(self):
-        return None if self.x is None else float(self.x[0])
+        return None if self._x is None else self._x[0]
 
     @property
     def variance(self):
-        return math.inf if self.P is None else float(self.P[0, 0]) + self.settings.zero_sigma ** 2
+        return math.inf if self._p is None else self._p[0] + self.settings.zero_sigma ** 2
 
     @property
     def bias(self):
-        return 0.0 if self.x is None else float(self.x[1])
+        return 0.0 if self._x is None else self._x[1]
+
+
+def _matrix(p):
+    p00, p01, p02, p11, p12, p22 = p
+    return np.array([[p00, p01, p02], [p01, p11, p12], [p02, p12, p22]])

@@ -68,6 +68,9 @@ class NavEKF:
         self.gnss_bias_var = 0.0  # m^2 per axis, the receiver's slow-error variance (split_fix_covariance)
         self.accel_mode = False   # A is the accelerometer bias (set_accel_mode)
         self.bias_dropped = False  # the latest fix's slow-error variance fell below a quarter of the one before
+        self._eye = np.eye(N)
+        self._decay_dt, self._decay_f = None, None
+        self._q_key, self._q = None, None
 
     def split_fix_covariance(self, cov):
         """(white 2x2 covariance, slow-bias variance per axis) of a fix's horizontal covariance; sets the bias
@@ -108,6 +111,7 @@ class NavEKF:
         if on == self.accel_mode:
             return
         self.accel_mode = on
+        self._decay_dt = None
         if self.x is not None:
             self.x[IA] = 0.0
             self.P[IA, :] = self.P[:, IA] = 0.0
@@ -122,6 +126,21 @@ class NavEKF:
         h = self.crab_jacobian()
         return float(h @ self.x[IC:IR]), float(h @ self.P[IC:IR, IC:IR] @ h)
 
+    def _process_noise(self, dt, fb, fc):
+        """Diagonal Q of one step (cached: dt, mode and receiver-bias variance repeat)."""
+        key = (dt, self.accel_mode, self.gnss_bias_var)
+        if key != self._q_key:
+            s = self.settings
+            q_bias = self.gnss_bias_var * (1.0 - fb ** 2)   # keeps the Gauss-Markov variance stationary
+            q_v = s.speed_walk ** 2 + (s.accel_noise ** 2 if self.accel_mode else 0.0)
+            q_a = s.accel_bias_walk ** 2 if self.accel_mode else s.jerk_noise ** 2
+            self._q_key = key
+            self._q = np.array((s.slip_noise ** 2 * dt, s.slip_noise ** 2 * dt, s.rate_noise ** 2 * dt,
+                                s.bias_walk ** 2 * dt, q_v * dt, q_a * dt, q_bias, q_bias,
+                                s.crab_sigma ** 2 * (1.0 - fc ** 2), s.crab_gain_walk ** 2 * dt, 0.0,
+                                s.wheel_scale_walk ** 2 * dt, s.gyro_scale_walk ** 2 * dt))
+        return self._q
+
     def course(self):
         return self.x[IPHI] + self.crab_jacobian() @ self.x[IC:IR]
 
@@ -133,19 +152,31 @@ class NavEKF:
         self.P[:2, :2] = np.asarray(xy_cov) + self.gnss_bias_var * np.eye(2)
         self.P[IX, IBX] = self.P[IBX, IX] = self.P[IY, IBY] = self.P[IBY, IY] = -self.gnss_bias_var
 
+    def _decay(self, dt):
+        """(A, receiver bias, crab, terrain roll) Gauss-Markov factors over dt (cached: dt repeats)."""
+        if dt != self._decay_dt:
+            s = self.settings
+            self._decay_dt = dt
+            self._decay_f = (1.0 if self.accel_mode else math.exp(-dt / s.accel_tau),
+                             math.exp(-dt / s.gnss_bias_tau) if s.gnss_bias_tau > 0 else 0.0,
+                             math.exp(-dt / s.crab_tau), math.exp(-dt / s.crab_roll_tau))
+        return self._decay_f
+
     def transition(self, dt, rate=0.0):
         """Jacobian F of one propagation step at the current state (rate: the clockwise gyro rate)."""
-        s, v, c = self.settings, self.x[IV], self.course()
-        F = np.eye(N)
-        F[IX, IPHI], F[IY, IPHI] = v * math.cos(c) * dt, -v * math.sin(c) * dt
-        F[IX:IPHI, IC:IR] = np.outer(F[IX:IPHI, IPHI], self.crab_jacobian())
+        x = self.x.tolist()
+        sin_rho = math.sin(x[IR])
+        c = x[IPHI] + (x[IC] + sin_rho * x[IK])
+        fa, fb, fc, fr = self._decay(dt)
+        vc, vs = x[IV] * math.cos(c) * dt, -x[IV] * math.sin(c) * dt
+        F = self._eye.copy()
+        F[IX, IPHI] = F[IX, IC] = vc
+        F[IY, IPHI] = F[IY, IC] = vs
+        F[IX, IK], F[IY, IK] = vc * sin_rho, vs * sin_rho
         F[IX, IV], F[IY, IV] = math.sin(c) * dt, math.cos(c) * dt
         F[IPHI, IB], F[IPHI, IS] = -dt, rate * dt
         F[IV, IA] = -dt if self.accel_mode else dt
-        F[IA, IA] = 1.0 if self.accel_mode else math.exp(-dt / s.accel_tau)
-        F[IBX, IBX] = F[IBY, IBY] = math.exp(-dt / s.gnss_bias_tau) if s.gnss_bias_tau > 0 else 0.0
-        F[IC, IC] = math.exp(-dt / s.crab_tau)
-        F[IR, IR] = math.exp(-dt / s.crab_roll_tau)
+        F[IA, IA], F[IBX, IBX], F[IBY, IBY], F[IC, IC], F[IR, IR] = fa, fb, fb, fc, fr
         return F
 
     def predict(self, rate, dt, accel=None, roll=0.0):
@@ -153,23 +184,19 @@ class NavEKF:
         gravity-compensated) in accelerometer mode; roll (rad, right side down) drives the crab model."""
         s = self.settings
         F = self.transition(dt, rate)
-        v, c = self.x[IV], self.course()
+        fa, fb, fc, fr = self._decay(dt)
         x = self.x.copy()
+        v, c = x[IV], x[IPHI] + (x[IC] + math.sin(x[IR]) * x[IK])
         x[IX] += v * math.sin(c) * dt
         x[IY] += v * math.cos(c) * dt
         x[IPHI] = math.remainder(x[IPHI] + ((1.0 + x[IS]) * rate - x[IB]) * dt, 2 * math.pi)
         x[IV] += ((accel or 0.0) - x[IA]) * dt if self.accel_mode else x[IA] * dt
-        x[IA] *= F[IA, IA]
-        x[IBX:IC] *= F[IBX, IBX]
-        x[IC] *= F[IC, IC]
-        x[IR] = roll + F[IR, IR] * (x[IR] - roll)
-        q_bias = self.gnss_bias_var * (1.0 - F[IBX, IBX] ** 2)   # keeps the Gauss-Markov variance stationary
-        q_v = s.speed_walk ** 2 + (s.accel_noise ** 2 if self.accel_mode else 0.0)
-        q_a = s.accel_bias_walk ** 2 if self.accel_mode else s.jerk_noise ** 2
+        x[IA] *= fa
+        x[IBX:IC] *= fb
+        x[IC] *= fc
+        x[IR] = roll + fr * (x[IR] - roll)
         P = F @ self.P @ F.T
-        P[DIAGN] += (s.slip_noise ** 2 * dt, s.slip_noise ** 2 * dt, s.rate_noise ** 2 * dt, s.bias_walk ** 2 * dt,
-                     q_v * dt, q_a * dt, q_bias, q_bias, s.crab_sigma ** 2 * (1.0 - F[IC, IC] ** 2),
-                     s.crab_gain_walk ** 2 * dt, 0.0, s.wheel_scale_walk ** 2 * dt, s.gyro_scale_walk ** 2 * dt)
+        P[DIAGN] += self._process_noise(dt, fb, fc)
         self.P = P
         self.x = x
         if self.log is not None:
