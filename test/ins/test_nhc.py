@@ -116,22 +116,36 @@ def test_nhc_bounds_outage_drift():
     assert sigma[True] < 0.3 * sigma[False]                       # the constraint bounds the growth
 
 
-def test_realigns_after_fixes_stay_rejected():
-    """A 30 m jump that persists (a new correction source) is gated, then the filter re-aligns to it."""
-    traj = sy.field_drive(duration=100.0, speed=2.0, leg=30.0, heading0=1.0)
+def _persisting_jump(traj, t_jump, seed):
+    """The INS run with every fix from t_jump on 30 m north (a new correction source): (filter, errors)."""
     gyro, accel = sy.ideal_imu(traj)
-    rng = np.random.default_rng(15)
+    rng = np.random.default_rng(seed)
     g, a, _, _ = sy.MemsGrade().corrupt(gyro, accel, 0.01, rng)
     gnss = sy.gnss_samples(traj, gyro, LEVER, sy.RTK_5HZ, rng)
     for _, sample in gnss:
-        if sample.t >= 40.0:
+        if sample.t >= t_jump:
             sample.lat += 30.0 / 6.37e6
     ekf = InsEkf(InsEkfSettings(lever_gnss_frd=LEVER))
-    err = sy.run_ins(ekf, traj, g, a, gnss)
+    return ekf, sy.run_ins(ekf, traj, g, a, gnss)
+
+
+def test_realigns_after_fixes_stay_rejected():
+    """A 30 m jump that persists (a new correction source) is gated, then the filter re-aligns to it."""
+    ekf, err = _persisting_jump(sy.field_drive(duration=100.0, speed=2.0, leg=30.0, heading0=1.0), 40.0, 15)
     assert ekf.stats["rejected"].get("reinitialized", 0) >= 1
     late = err.t > 60.0
     assert np.linalg.norm(err.pos[late, :2] - [30.0, 0.0], axis=1).max() < 0.1
     assert np.degrees(np.abs(err.att[late, 2])).max() < 1.0
+
+
+def test_realigns_standing_still_after_fixes_stay_rejected():
+    """The same persisting jump while the vehicle stands still: re-aligned on the heading it keeps (no course)."""
+    traj = sy.drive([(4.0, 0.5, 0.0), (40.0, 0.0, 0.0), (4.0, -0.5, 0.0), (60.0, 0.0, 0.0)], heading0=1.0)
+    ekf, err = _persisting_jump(traj, 55.0, 17)
+    assert ekf.stats["rejected"].get("reinitialized", 0) >= 1
+    late = err.t > 90.0
+    miss = np.linalg.norm(err.pos[late, :2] - [30.0, 0.0], axis=1)
+    assert miss.max() < 0.2 and np.all(miss < 3.0 * err.pos_sigma[late])
 
 
 @pytest.mark.parametrize("heading", [0.3, -2.5])
@@ -225,20 +239,3 @@ def test_crab_mean_slides_downhill_once_aligned():
     assert s.crab_mean(-math.radians(6.0)) < 0.0                                                # left side down
     assert s.crab_mean(math.radians(6.0), heading_sigma=math.radians(20.0)) == 0.0              # still aligning
 
-
-def test_realigns_standing_still_after_fixes_stay_rejected():
-    """The same persisting jump while the vehicle stands still: re-aligned on the heading it keeps (no course)."""
-    traj = sy.drive([(4.0, 0.5, 0.0), (40.0, 0.0, 0.0), (4.0, -0.5, 0.0), (60.0, 0.0, 0.0)], heading0=1.0)
-    gyro, accel = sy.ideal_imu(traj)
-    rng = np.random.default_rng(17)
-    g, a, _, _ = sy.MemsGrade().corrupt(gyro, accel, 0.01, rng)
-    gnss = sy.gnss_samples(traj, gyro, LEVER, sy.RTK_5HZ, rng)
-    for _, sample in gnss:
-        if sample.t >= 55.0:
-            sample.lat += 30.0 / 6.37e6
-    ekf = InsEkf(InsEkfSettings(lever_gnss_frd=LEVER))
-    err = sy.run_ins(ekf, traj, g, a, gnss)
-    assert ekf.stats["rejected"].get("reinitialized", 0) >= 1
-    late = err.t > 90.0
-    assert np.linalg.norm(err.pos[late, :2] - [30.0, 0.0], axis=1).max() < 0.2
-    assert np.all(np.linalg.norm(err.pos[late, :2] - [30.0, 0.0], axis=1) < 3.0 * err.pos_sigma[late])
