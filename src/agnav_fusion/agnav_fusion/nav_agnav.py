@@ -29,7 +29,7 @@ class AgnavEstimator:
         self.roll_filter, self.pitch_filter = AttitudeKF(s.roll_kf), AttitudeKF(s.pitch_kf)
         self.ekf = NavEKF(s.ekf)
         self.wheel = None          # latest wheel speed (t, speed, variance) not yet fused
-        self.raw_heading = 0.0     # relative yaw before the absolute heading exists
+        self.raw_heading = 0.0     # relative yaw before the absolute heading exists (less the yaw bias learnt)
         self.heading_known = False  # absolute heading initialised from the GNSS course
         self.chord = HeadingChord(s.chord_max_turn, s.heading_init_distance, s.chord_max_sigma)
         self.still = False         # the latest fix says the vehicle stands still
@@ -56,7 +56,7 @@ class AgnavEstimator:
         # a pendulum reads roll + a_y/g and (REP-103) pitch - a_x/g, i.e. thesis nose-up pitch + a_x/g
         roll = self.roll_filter.update(droll, roll_incl, dt, acc[1] / GRAVITY, acc_var[1] / GRAVITY ** 2)
         pitch = self.pitch_filter.update(-dpitch, pitch_incl, dt, acc[0] / GRAVITY, acc_var[0] / GRAVITY ** 2)
-        self.raw_heading += rate_cw * dt
+        self.raw_heading += (rate_cw - (self.ekf.x[IB] if self.ekf.x is not None else 0.0)) * dt  # the bias learnt
         wheel = self.wheel[1:] if self.wheel and 0 <= t - self.wheel[0] <= s.wheel_timeout else None
         self.wheel = None if wheel else self.wheel
         along = None
