@@ -53,6 +53,7 @@ def generate_launch_description():
                  'pitch_kf.gyro_noise': 0.0005,
                  'pitch_kf.bias_walk': 1e-05,
                  'pitch_kf.incl_noise': 0.002,
+                 'pitch_kf.tau_rel_identified': 0.2,
                  'ekf.rate_noise': 0.0005,
                  'ekf.bias_walk': 2e-05,
              }, {'use_sim_time': use_sim_time}]),
