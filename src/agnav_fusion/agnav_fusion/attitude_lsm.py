@@ -34,30 +34,33 @@ class AttitudeLSM:
         """One sample of gyro rate (rad/s) and inclinometer angle (rad, or None: gyro only); returns the angle."""
         if incl is None:
             if self.angle is not None:
-                self.angle += (rate + self.drift) * dt
+                self.angle += (rate + self._lsm.drift) * dt
             return self.angle
         drift = self._lsm.update(rate, incl, dt)
-        self.angle = incl if self.angle is None else self.angle + (rate + drift) * dt
-        self._history.append(self.angle)
+        angle = incl if self.angle is None else self.angle + (rate + drift) * dt
+        history, resids, sums = self._history, self._resid, self._sums
+        history.append(angle)
         # anchor: running mean at start-up (initial standstill), then a slow pull (IMPL)
         self._count += 1
-        resid = incl - self._history[0]
-        if len(self._resid) == self._resid.maxlen:
-            old = self._resid[0]
-            self._sums[0] -= old
-            self._sums[1] -= old * old
-        self._resid.append(resid)
-        self._sums[0] += resid
-        self._sums[1] += resid * resid
-        if self._count % self._resid.maxlen == 0:  # re-sum now and then: no drift from the running updates
-            self._sums = [math.fsum(self._resid), math.fsum(r * r for r in self._resid)]
+        resid = incl - history[0]
+        if len(resids) == resids.maxlen:
+            old = resids[0]
+            sums[0] -= old
+            sums[1] -= old * old
+        resids.append(resid)
+        sums[0] += resid
+        sums[1] += resid * resid
+        if self._count % resids.maxlen == 0:  # re-sum now and then: no drift from the running updates
+            sums[:] = math.fsum(resids), math.fsum(r * r for r in resids)
         gain = 1.0 / self._count
-        if self.settings.anchor_time > 0:
-            gain = max(gain, dt / self.settings.anchor_time)
-        if not self._lsm.ready or self.settings.anchor_time > 0:
-            self.angle += gain * resid
-            self._history[-1] = self.angle
-        return self.angle
+        anchor_time = self.settings.anchor_time
+        if anchor_time > 0:
+            gain = max(gain, dt / anchor_time)
+        if anchor_time > 0 or not self._lsm.ready:
+            angle += gain * resid
+            history[-1] = angle
+        self.angle = angle
+        return angle
 
     @property
     def variance(self):

@@ -17,23 +17,23 @@ class DeadReckoning:
 
     def __init__(self, settings=None):
         self.settings = settings or DeadReckoningSettings()
-        self.xy = None
-        self.cov = None
-        self._cov0 = None
+        self.xy = None     # [X, Y] floats, None before the first fix
+        self._cov0 = None  # the fix's 2x2 covariance as floats (row by row)
         self._time = 0.0
         self._distance = 0.0
 
     def reset(self, xy, cov):
         """Restart from the latest tilt-corrected fix (X_latest, Y_latest) with its 2x2 covariance."""
-        self.xy = np.array(xy, dtype=float)
-        self.cov = self._cov0 = np.array(cov, dtype=float)
+        self.xy = [float(xy[0]), float(xy[1])]
+        self._cov0 = np.asarray(cov, dtype=float).ravel().tolist()
         self._time = self._distance = 0.0
 
     def step(self, heading, speed, dt):
-        """Advance one attitude-package sample (5.12)-(5.13); returns (xy, cov)."""
+        """Advance one attitude-package sample (5.12)-(5.13); returns new arrays (xy, 2x2 cov)."""
         s, c = math.sin(heading), math.cos(heading)
-        self.xy[0] += s * speed * dt
-        self.xy[1] += c * speed * dt
+        xy = self.xy
+        xy[0] += s * speed * dt
+        xy[1] += c * speed * dt
         self._time += dt
         self._distance += abs(speed) * dt
         # speed and heading errors are slow (bias-like): error grows with time / distance since the fix; the
@@ -41,5 +41,6 @@ class DeadReckoning:
         va = (self.settings.speed_sigma * self._time) ** 2
         vc = (self.settings.heading_sigma * self._distance) ** 2
         sc = (va - vc) * s * c
-        self.cov = self._cov0 + np.array([[va * s * s + vc * c * c, sc], [sc, va * c * c + vc * s * s]])
-        return self.xy, self.cov
+        c00, c01, c10, c11 = self._cov0
+        return np.array(xy), np.array([[c00 + (va * s * s + vc * c * c), c01 + sc],
+                                       [c10 + sc, c11 + (va * c * c + vc * s * s)]])

@@ -25,25 +25,26 @@ class WindowDriftLSM:
         self._inc_sum = 0.0
         self._dt_sum = 0.0
         self.drift = 0.0
-
-    @property
-    def ready(self):
-        return len(self._ref) == self._ref.maxlen and len(self._win) == self._win.maxlen
+        self.ready = False  # both windows full (they stay full)
 
     def update(self, rate, ref_angle, dt):
         """Add one sample (gyro rate, reference angle, dt); returns the drift d_t (rate units), 0 until ready."""
-        if self.circular and self._ref:
-            ref_angle = self._ref[-1] + wrap(ref_angle - self._ref[-1])
-        self._ref.append(ref_angle)
-        self._lag.append(rate * dt)
-        if len(self._lag) == self._lag.maxlen:
-            if len(self._win) == self._win.maxlen:
-                old_inc, old_dt = self._win[0]
+        ref, lag, win = self._ref, self._lag, self._win
+        if self.circular and ref:
+            ref_angle = ref[-1] + wrap(ref_angle - ref[-1])
+        ref.append(ref_angle)
+        lag.append(rate * dt)
+        if len(lag) == lag.maxlen:
+            if len(win) == win.maxlen:
+                old_inc, old_dt = win[0]
                 self._inc_sum -= old_inc
                 self._dt_sum -= old_dt
-            self._win.append((self._lag[0], dt))
-            self._inc_sum += self._lag[0]
+            inc = lag[0]
+            win.append((inc, dt))
+            self._inc_sum += inc
             self._dt_sum += dt
+        if not self.ready:
+            self.ready = len(ref) == ref.maxlen and len(win) == win.maxlen
         if self.ready:
-            self.drift = (self._ref[-1] - self._ref[0] - self._inc_sum) / self._dt_sum
+            self.drift = (ref[-1] - ref[0] - self._inc_sum) / self._dt_sum
         return self.drift

@@ -20,19 +20,17 @@ class ThesisEstimator:
         self.dr = DeadReckoning(s.dead_reckoning)
         self.speed = 0.0  # travel speed V for dead reckoning
         self.wheel = None  # (not fused by the thesis' module)
+        self._heading_var = None  # (last_fix it was computed for, variance): changes only at a fix
 
     def step(self, t, dt, gyro, prev, roll_incl, pitch_incl):
         """-> (rate_cw, roll, pitch, heading, raw heading, nav, still, wheel) of this sample."""
-        droll, dpitch, dyaw = gyro  # the thesis treats each axis independently (SPEC §6.2 pitfall)
+        droll, dpitch, dyaw = gyro.tolist()  # the thesis treats each axis independently (SPEC §6.2 pitfall)
         rate_cw = -dyaw
         roll = self.roll_filter.update(droll, roll_incl, dt)
         pitch = self.pitch_filter.update(-dpitch, pitch_incl, dt)
         heading = self.heading_lsm.on_gyro(rate_cw, dt)
         heading = self.heading_lsm.raw_heading if heading is None else heading
-        nav = None
-        if self.dr.xy is not None:
-            xy, cov = self.dr.step(heading, self.speed, dt)
-            nav = (xy.copy(), cov.copy())
+        nav = None if self.dr.xy is None else self.dr.step(heading, self.speed, dt)
         return rate_cw, roll, pitch, heading, self.heading_lsm.raw_heading, nav, False, None
 
     def white_fix_covariance(self, cov2):
@@ -54,17 +52,19 @@ class ThesisEstimator:
             speed = float(np.hypot(*(xy - m.last_fix[1][:2]))) / dt_fix if m.last_fix else 0.0
         self.speed = speed
         self.heading_lsm.on_fix(xy[0], xy[1], speed, snap.raw_heading, snap.heading, dt_fix)
+        self._heading_var = None
         self.dr.reset(xy, R)
         snap.nav = (xy.copy(), R.copy())
         for j in range(k + 1, len(hist)):  # (5.12)-(5.13) from the fix epoch to now
-            out = self.dr.step(hist[j].heading, speed, hist[j].dt)
-            hist[j].nav = (out[0].copy(), out[1].copy())
+            hist[j].nav = self.dr.step(hist[j].heading, speed, hist[j].dt)
         return True
 
     def heading_variance(self):
         fix = self.m.last_fix
-        pos_var = float(np.trace(fix[2][:2, :2])) / 2 if fix else 1.0
-        return self.heading_lsm.kise.variance(pos_var) + 1e-6
+        if self._heading_var is None or self._heading_var[0] is not fix:
+            pos_var = float(np.trace(fix[2][:2, :2])) / 2 if fix else 1.0
+            self._heading_var = (fix, self.heading_lsm.kise.variance(pos_var) + 1e-6)
+        return self._heading_var[1]
 
     def rate_corrections(self):
         """(roll, thesis pitch, clockwise yaw) gyro corrections."""
