@@ -75,7 +75,7 @@ class InputGuard:
 
     def _stuck(self, values):
         """True from the stuck_samples-th bit-identical IMU reading in a row (real sensors have noise)."""
-        reading = tuple(x for v in values for x in np.ravel(v).tolist())
+        reading = [v.tolist() if isinstance(v, np.ndarray) else np.ravel(v).tolist() for v in values]
         self._repeats = self._repeats + 1 if reading == self._last_imu else 0
         self._last_imu = reading
         return self._repeats >= self.settings.stuck_samples - 1

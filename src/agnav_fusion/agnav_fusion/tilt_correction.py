@@ -58,7 +58,10 @@ def tilt_variance(lever, var_roll, var_pitch, var_heading, max_tilt_var=0.1, max
     """Horizontal variance (m^2 per axis) that attitude variances (rad^2) add to a tilt-corrected position through
     the lever arm (right, forward, up): height x tilt, horizontal arm x heading. Each variance is capped (a
     non-finite or negative one counts as the cap): beyond it the small-angle projection means nothing."""
-    vr, vp, vh = (min(v, cap) if math.isfinite(v) and v >= 0 else cap for v, cap in
-                  ((var_roll, max_tilt_var), (var_pitch, max_tilt_var), (var_heading, max_heading_var)))
-    a, b, h = lever
-    return h * h * (vr + vp) / 2 + (a * a + b * b) * vh
+    a, b, h = np.asarray(lever, dtype=float).tolist()
+    return (h * h * (_capped(var_roll, max_tilt_var) + _capped(var_pitch, max_tilt_var)) / 2
+            + (a * a + b * b) * _capped(var_heading, max_heading_var))
+
+
+def _capped(var, cap):
+    return min(var, cap) if math.isfinite(var) and var >= 0 else cap
