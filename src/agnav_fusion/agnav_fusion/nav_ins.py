@@ -42,6 +42,8 @@ class InsNavSettings:
     mount_yaw_sigma: float = math.radians(0.5)    # rad, IMU yaw mount error beyond TF (bracket squared to the vehicle
                                            # axis by eye, +-1 deg): the antenna lever in turns heads the IMU, the NHC
                                            # on straights the vehicle; unmodelled, added to the yaw variance
+    heading_valid_sigma: float = math.radians(3.0)  # rad: nothing is published before the yaw sigma (mount's included)
+                                           # is below this once (an outage's growing sigma later stays published)
     ekf: InsEkfSettings = field(default_factory=InsEkfSettings)
     guard: InputGuardSettings = field(default_factory=lambda: InputGuardSettings(
         max_stamp_jump=1.0, min_fix_sigma=0.01, diagnostic_window=5.0))
@@ -68,6 +70,7 @@ class InsNavigation:
         self.plane = self.enu_plane = None
         self.filter_seen = {}       # EKF rejection counts already turned into guard events
         self._state = None
+        self._heading_valid = False     # the yaw sigma has been below heading_valid_sigma
 
     @property
     def counters(self):
@@ -178,8 +181,9 @@ class InsNavigation:
             self.guard.count("output_invalid")
             return None
         outage = self.ekf.gnss_age() > self.settings.gnss_timeout
+        self._heading_valid = self._heading_valid or b.pose_cov[5, 5] <= self.settings.heading_valid_sigma ** 2
         return NavState(b.t, b.position, b.rpy, b.pose_cov, float(b.velocity[0]), b.rates, b.twist_cov,
-                        True, True, outage, crab, crab_var)
+                        self._heading_valid, True, outage, crab, crab_var)
 
     def health(self):
         """Filter health for the diagnostics: alignment, mode, NIS means, counts, GNSS age, heading sigma."""

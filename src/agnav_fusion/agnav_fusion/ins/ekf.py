@@ -22,6 +22,7 @@ from .history import SolutionHistory
 from .alignment import FixTrack, initial_state, initial_variances
 from .measurements import GnssPosition, GnssVelocity
 from .mechanization import Mechanization, _floats
+from .standstill import StandstillBias
 from .settings import InsEkfSettings, NavSolution  # noqa: F401 (re-exported)
 from .solution import nav_solution
 
@@ -41,6 +42,7 @@ class InsEkf:
         if self.nhc is not None:
             self.psd = np.append(self.psd, 0.0)   # crab noise: roll-dependent, added in _propagate_covariance
         self.crab = 0.0
+        self._crab_mean = 0.0             # the roll-driven mean the crab state deviates from (propagate_covariance)
         self._nhc_t = -math.inf
         self.models = [GnssPosition(self.s.lever_gnss_frd), GnssVelocity(self.s.lever_gnss_frd)]
         self.t = None
@@ -53,6 +55,7 @@ class InsEkf:
         self._f = None
         self._level = deque()
         self._fix_track = FixTrack()
+        self._standstill = StandstillBias(self.s.standstill, self.s.error.gyro_arw)
         self._history = SolutionHistory(self.s.history)
         self._pending = []
         self._gates = {}
@@ -107,6 +110,7 @@ class InsEkf:
             self._level.popleft()
         nominal = self._nominal_dt(dt)
         if self.mech is None:
+            self._standstill.add_imu(t, gyro, accel)
             self.t, self._last_imu = t, (gyro, accel)
             self._process_pending()
             return None
@@ -144,6 +148,8 @@ class InsEkf:
         if g.vel_enu is not None and not (np.all(np.isfinite(g.vel_enu)) and np.all(np.isfinite(g.vel_cov_enu))
                                           and np.all(np.diag(g.vel_cov_enu) > 0)):
             g.vel_enu = None
+        if self.mech is None:
+            self._standstill.add_fix(g)
         if g.vel_enu is None:       # the INS's own fix differences: alignment only (ignored by the updates)
             vel = self._fix_track.velocity(g)
             if vel is not None:
@@ -182,8 +188,9 @@ class InsEkf:
         return dt
 
     def propagate_covariance(self, p, dt, q_extra=()):
-        """Φ P Φᵀ + U Δt (5-9-4, 5-6-2), Φ = I + F Δt over dt at the last mechanization step; crab: first-order
-        Gauss-Markov about its roll-driven mean, steady σ from the roll. Rows beyond n_states:
+        """Φ P Φᵀ + U Δt (5-9-4, 5-6-2), Φ = I + F Δt over dt at the last mechanization step; crab: its roll-driven
+        mean (follows the roll at once) plus a first-order Gauss-Markov deviation, steady σ from the roll. Rows beyond
+        n_states:
         Φ = I, white noise `q_extra` [unit²/s]."""
         st = self.mech.state
         rho, omega, a_c, c_bc = self._f
@@ -194,7 +201,9 @@ class InsEkf:
             (_, _, _), (_, _, _), (_, c7, c8) = st.dcm_rows()
             a, roll = min(dt / self.s.nhc.crab_tau, 1.0), math.atan2(c7, c8)
             phi[CRAB, CRAB] = 1.0 - a
-            self.crab += a * (self.s.nhc.crab_mean(roll, self.heading_sigma()) - self.crab)
+            mean = self.s.nhc.crab_mean(roll, self.heading_sigma())
+            self.crab = mean + (1.0 - a) * (self.crab - self._crab_mean)
+            self._crab_mean = mean
             q[CRAB] = 2.0 * a * self.s.nhc.crab_var(roll)
         p = phi @ p @ phi.T
         p.flat[::len(p) + 1] += q
@@ -237,6 +246,7 @@ class InsEkf:
         self.p[:k, :k] = np.asarray(p)[:k, :k]
         if k < n:
             self.p[CRAB, CRAB] = self.s.nhc.crab_var(mech.state.euler()[0])
+        self._crab_mean = self.s.nhc.crab_mean(mech.state.euler()[0], self.heading_sigma()) if self.nhc else 0.0
         self.omega_b = np.zeros(3) if omega_b is None else np.array(omega_b, dtype=float)
         self._f, self._cov_dt, self._gap_var, self._pending, self._corr = None, 0.0, None, [], np.zeros(6)
         self._history.clear()
@@ -268,13 +278,16 @@ class InsEkf:
 
     def _initialize(self, g, heading, heading_var):
         """Initial state at fix g (alignment.initial_state); False: not yet (standing with an unknown heading)."""
-        init = initial_state(self.s, g, self._level, heading, heading_var,
-                             self.mech.gyro_bias if self.mech else np.zeros(3))
+        still = self._standstill.estimate(g.lat) if self.mech is None else None
+        bias = np.array(still[0]) if still else np.zeros(3)
+        init = initial_state(self.s, g, self._level, heading, heading_var, self.mech.gyro_bias if self.mech else bias)
         if init is None:
             return False
-        self.mech = Mechanization(init[0])
+        self.mech = Mechanization(init[0], gyro_bias=bias)
         self.p = np.diag(initial_variances(self.s, g, init[1], self.nhc is not None))
-        self.crab = 0.0
+        if still:
+            self.p[em.BG, em.BG] = np.diag(still[1])
+        self.crab = self._crab_mean = 0.0
         self._f = None
         self._history.clear()
         self._snapshot()
