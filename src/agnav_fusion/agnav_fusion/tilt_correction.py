@@ -64,4 +64,4 @@ def tilt_variance(lever, var_roll, var_pitch, var_heading, max_tilt_var=0.1, max
 
 
 def _capped(var, cap):
-    return min(var, cap) if math.isfinite(var) and var >= 0 else cap
+    return var if 0.0 <= var <= cap else cap  # NaN, negative, above the cap (inf): the cap
