@@ -73,3 +73,33 @@ def test_receiver_bias_states_keep_the_position_covariance_honest():
     ekf, bias_var, heading_error = run(NavEKFSettings(gnss_bias_tau=300.0, gnss_white_sigma=0.015))
     assert bias_var == 0.25 - 0.015 ** 2
     assert math.sqrt(ekf.P[0, 0]) > 0.45 and heading_error < math.radians(0.2)
+
+
+def test_receiver_error_class_rise_restarts_the_bias():
+    """RTK fixed (1.2 cm) for 30 s, then float: the fixes jump by 20 cm and report 26 cm. The slow error is a new one
+    (bias_changed, as on the drop back to fixed): the position keeps what it knew and its variance stays honest. Left
+    at the fixed class's tiny bias variance, the first float fixes would pull the position 20 cm at a few cm sigma."""
+    def run(restart):
+        rng = np.random.default_rng(4)
+        ekf = NavEKF(NavEKFSettings(gnss_bias_tau=40.0, gnss_white_sigma=0.01))
+        heading, rate = math.radians(30.0), 50
+        fixed, floating, jump = np.diag([1.2e-2 ** 2] * 2), np.diag([0.26 ** 2] * 2), np.array([0.2, 0.0])
+        R, _ = ekf.split_fix_covariance(fixed)
+        ekf.initialise([0.0, 0.0], R, heading, 1.0)
+        worst = 0.0
+        for k in range(1, 45 * rate):
+            ekf.predict(rng.normal(0, 0.002), 1.0 / rate)
+            if k % (rate // 5) == 0:
+                t = k / rate
+                p = t * np.array([math.sin(heading), math.cos(heading)])
+                float_now = t >= 30.0
+                R, _ = ekf.split_fix_covariance(floating if float_now else fixed)
+                if ekf.bias_changed and restart:
+                    ekf.restart_bias()
+                y, S, _, H = ekf.position_innovation(p + (jump if float_now else 0.0) + rng.normal(0, 0.01, 2), R)
+                ekf.update(y, S, H, R)
+                if float_now:
+                    worst = max(worst, abs(ekf.x[0] - p[0]) / math.sqrt(ekf.P[0, 0]))
+        return worst
+
+    assert run(restart=True) < 3.0 < run(restart=False)

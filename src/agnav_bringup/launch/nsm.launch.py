@@ -50,7 +50,7 @@ def generate_launch_description():
                  'heading.drift_window': 20,
                  'use_gnss_velocity': True,
                  'gate_chi2': 13.8,
-                 'ekf.gnss_bias_tau': 100.0,
+                 'ekf.gnss_bias_tau': 40.0,
                  'ekf.gnss_white_sigma': 0.01,
                  'untracked_tilt_sigma': 0.035,
                  'gnss_timeout': 2.5,

@@ -168,7 +168,7 @@ class AgnavEstimator:
             if started:  # the gyro bias learnt standing still shifts once the vehicle moves; the start's
                 ekf.P[IB, IB] += s.motion_bias_sigma ** 2  # acceleration is news to the A state
             ekf.P[IA, IA] += max(self.accel_miss ** 2, s.start_accel_sigma ** 2 if started else 0.0)
-            if ekf.bias_dropped:
+            if ekf.bias_changed:
                 ekf.restart_bias()
         if first:
             pass

@@ -67,7 +67,7 @@ class NavEKF:
         self.log = None  # (F, x_pred, P_pred, x_filt, P_filt) per predict+updates, for kalman.smooth_log
         self.gnss_bias_var = 0.0  # m^2 per axis, the receiver's slow-error variance (split_fix_covariance)
         self.accel_mode = False   # A is the accelerometer bias (set_accel_mode)
-        self.bias_dropped = False  # the latest fix's slow-error variance fell below a quarter of the one before
+        self.bias_changed = False  # the latest fix's slow-error variance is under a quarter or over 4x the one before
         self._eye = np.eye(N)
         self._decay_dt, self._decay_f = None, None
         self._q_key, self._q = None, None
@@ -81,16 +81,17 @@ class NavEKF:
             return cov, 0.0
         total = float(np.trace(cov)) / 2
         old, self.gnss_bias_var = self.gnss_bias_var, max(total - s.gnss_white_sigma ** 2, 0.0)
-        self.bias_dropped = self.gnss_bias_var < 0.25 * old
+        self.bias_changed = not 0.25 * old <= self.gnss_bias_var <= 4.0 * old
         return cov - self.gnss_bias_var * np.eye(2), self.gnss_bias_var
 
     def restart_bias(self):
-        """The receiver's error class dropped (RTK float -> fixed): the slow error learnt is its old one, the new
-        starts at zero with the new variance (the position keeps what it knew)."""
+        """The receiver's error class changed (RTK fixed <-> float, DGPS): the slow error learnt is its old one, the
+        new one starts at zero with the new variance (the position keeps what it knew). A rise matters as much as a
+        drop: left at the fixed class's variance, the bias state would let the first float fixes pull the position."""
         self.x[IBX:IC] = 0.0
         self.P[IBX:IC, :] = self.P[:, IBX:IC] = 0.0
         self.P[IBX, IBX] = self.P[IBY, IBY] = self.gnss_bias_var
-        self.bias_dropped = False
+        self.bias_changed = False
 
     def initialise(self, xy, xy_cov, heading, speed=0.0):
         s = self.settings
