@@ -20,7 +20,8 @@ from agnav_fusion.nav_settings import MOUNTS, NavSensorModuleSettings, NavState,
 from agnav_fusion.nav_thesis import ThesisEstimator
 
 ESTIMATORS = {"agnav": AgnavEstimator, "thesis": ThesisEstimator}
-DIAG6 = np.diag_indices(6)
+TWIST_COV = np.diag((1.0, 0.01, 0.01, 1e-4, 1e-4, 1e-4))  # of the output (the estimators fill what they know)
+BIG_VAR = 1e6  # of the output's unknown axes
 DIFFERENCE_S = 12.0  # s of fixes a front end's fix-difference velocity may span (pipeline: 10 s)
 
 
@@ -70,8 +71,8 @@ class NavSensorModule:
         """Raw inclinometer reading (REP-103 rad) stamped at its epoch."""
         if not self.guard.accept("incl", t, roll, pitch):
             return False
-        zero_roll, zero_pitch = (math.radians(v) for v in self.settings.incl_zero_deg)
-        self._incl = (t, roll - zero_roll, pitch - zero_pitch)
+        zero = self.settings.incl_zero_deg
+        self._incl = (t, roll - math.radians(zero[0]), pitch - math.radians(zero[1]))
         return True
 
     def gnss(self, t, antenna_enu, cov, vel_enu=None, vel_var=None):
@@ -173,7 +174,7 @@ class NavSensorModule:
             self.history.popleft()
 
     def _drain_gnss(self):
-        if not self.history:
+        if not (self.history and self._pending_gnss):
             return
         now = self.history[-1].t - self.settings.lever_rate_window / 2  # the lever rates centred on the epoch
         ready = [g for g in self._pending_gnss if g[0] <= now]
@@ -246,15 +247,16 @@ class NavSensorModule:
         vr, vp = (v if np.isfinite(v) else untracked for v in self._attitude_variances())
         return tilt_correction.tilt_variance(self.lever, vr, vp, self.estimator.heading_variance())
 
-    def _rate_corrections(self):
-        """Estimated gyro errors removed from the body rates (FLU)."""
+    def _unbiased_rates(self, body_rates):
+        """Body rates less the estimated gyro errors (FLU)."""
         roll, pitch, yaw_cw = self.estimator.rate_corrections()
-        return np.array([roll, -pitch, -yaw_cw])
+        p, q, r = body_rates.tolist()
+        return np.array([p + roll, q - pitch, r - yaw_cw])
 
     def _corrected_rates(self, body_rates):
         """Body rates less the estimated gyro errors; a tilt axis without attitude filter output (no inclinometer
         yet) is zeroed, since its raw gyro offset would pass into the lever-arm velocity."""
-        rates = body_rates + self._rate_corrections()
+        rates = self._unbiased_rates(body_rates)
         rates[0] *= self.estimator.roll_filter.angle is not None
         rates[1] *= self.estimator.pitch_filter.angle is not None
         return rates
@@ -279,21 +281,22 @@ class NavSensorModule:
     def _output(self):
         s, snap = self.settings, self.history[-1]
         vr, vp = self._attitude_variances()
-        big = 1e6
+        vr, vp = min(vr, BIG_VAR), min(vp, BIG_VAR)
         pose_cov = np.zeros((6, 6))
-        pose_cov[DIAG6] = (big, big, big, min(vr, big), min(vp, big), big)
-        twist_cov = np.zeros((6, 6))
-        twist_cov[DIAG6] = (1.0, 0.01, 0.01, 1e-4, 1e-4, 1e-4)
+        pose_cov.flat[::7] = (BIG_VAR, BIG_VAR, BIG_VAR, vr, vp, BIG_VAR)
+        twist_cov = TWIST_COV.copy()
         position = np.zeros(3)
         if self.last_fix is not None:
             position[2] = self.last_fix[1][2]
             pose_cov[2, 2] = self.last_fix[2][2, 2]
         speed, heading_valid, position_valid = self.estimator.output(snap, position, pose_cov, twist_cov)
         # the attitude error that placed every recent fix on base_link is slow: averaging the fixes leaves it
-        pose_cov[:2, :2] += tilt_correction.tilt_variance(self.lever, min(vr, big), min(vp, big), 0.0) * np.eye(2)
-        rates = snap.body_rates + self._rate_corrections()
+        tilt_var = tilt_correction.tilt_variance(self.lever, vr, vp, 0.0)
+        pose_cov[0, 0] += tilt_var
+        pose_cov[1, 1] += tilt_var
+        rates = self._unbiased_rates(snap.body_rates)
         rpy = np.array([snap.roll, -snap.pitch, math.remainder(math.pi / 2 - snap.heading, 2 * math.pi)])
         dead_reckoning = snap.t - self._last_accepted_t > s.gnss_timeout
-        crab = getattr(self.estimator, "crab", lambda: None)()
+        crab = self.estimator.crab() if hasattr(self.estimator, "crab") else None
         return NavState(snap.t, position, rpy, pose_cov, speed, rates, twist_cov,
                         heading_valid, position_valid, dead_reckoning, *(crab or ()))
