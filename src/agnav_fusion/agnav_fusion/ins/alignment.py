@@ -69,8 +69,9 @@ def initial_state(s, g, level, heading, heading_var, gyro_bias):
     return InsState.from_geodetic(lat, lon, h, roll, pitch, heading, v_ned), heading_var
 
 
-def initial_variances(s, g, heading_var, crab=True):
-    """Diagonal of the initial error covariance (the crab state appended when the constraint is on)."""
+def initial_variances(s, g, heading_var, crab=True, gyro_bias_var=None):
+    """Diagonal of the initial error covariance (the crab state appended when the constraint is on; gyro_bias_var:
+    of a bias measured standing still, else gyro_bias_sigma0)."""
     r = earth.mean_radius(g.lat) + g.alt
     lever = float(np.linalg.norm(s.lever_gnss_frd[:2]))
     var = np.zeros(em.N_STATES)
@@ -79,7 +80,7 @@ def initial_variances(s, g, heading_var, crab=True):
     var[list(em.V3)] = s.velocity_sigma ** 2
     var[[em.TX, em.TY]] = s.tilt_sigma ** 2
     var[em.BA] = s.accel_bias_sigma0 ** 2
-    var[em.BG] = s.gyro_bias_sigma0 ** 2
+    var[em.BG] = s.gyro_bias_sigma0 ** 2 if gyro_bias_var is None else gyro_bias_var
     if heading_var >= 1.0:      # unknown: γ, β span the whole circle
         var[em.GAMMA], var[em.BETA] = 1.0, 2.0
     else:

@@ -190,8 +190,7 @@ class InsEkf:
     def propagate_covariance(self, p, dt, q_extra=()):
         """Φ P Φᵀ + U Δt (5-9-4, 5-6-2), Φ = I + F Δt over dt at the last mechanization step; crab: its roll-driven
         mean (follows the roll at once) plus a first-order Gauss-Markov deviation, steady σ from the roll. Rows beyond
-        n_states:
-        Φ = I, white noise `q_extra` [unit²/s]."""
+        n_states: Φ = I, white noise `q_extra` [unit²/s]."""
         st = self.mech.state
         rho, omega, a_c, c_bc = self._f
         lat, _, alpha = st.geo()
@@ -278,15 +277,13 @@ class InsEkf:
 
     def _initialize(self, g, heading, heading_var):
         """Initial state at fix g (alignment.initial_state); False: not yet (standing with an unknown heading)."""
-        still = self._standstill.estimate(g.lat) if self.mech is None else None
+        still = self._standstill.estimate(g.lat) if self.mech is None else None   # gyro bias learnt standing
         bias = np.array(still[0]) if still else np.zeros(3)
         init = initial_state(self.s, g, self._level, heading, heading_var, self.mech.gyro_bias if self.mech else bias)
         if init is None:
             return False
         self.mech = Mechanization(init[0], gyro_bias=bias)
-        self.p = np.diag(initial_variances(self.s, g, init[1], self.nhc is not None))
-        if still:
-            self.p[em.BG, em.BG] = np.diag(still[1])
+        self.p = np.diag(initial_variances(self.s, g, init[1], self.nhc is not None, still[1] if still else None))
         self.crab = self._crab_mean = 0.0
         self._f = None
         self._history.clear()
