@@ -75,8 +75,8 @@ class StandstillBias:
             median = [sorted(m[i] for m in means)[len(means) // 2] for i in range(3)]
             while inside and math.dist(means[len(inside) - 1], median) > self.s.rate_tolerance:
                 inside.pop()
-        n = sum(b[3] for b in inside)
-        if len(inside) * self.BUCKET < self.s.min_duration / 2:
+        n, duration = sum(b[3] for b in inside), len(inside) * self.BUCKET
+        if duration < self.s.min_duration / 2:
             return None
         gyro = [sum(b[1][i] for b in inside) / n for i in range(3)]
         accel = [sum(b[2][i] for b in inside) / n for i in range(3)]
@@ -84,7 +84,6 @@ class StandstillBias:
         down = [-a / norm for a in accel]                  # specific force at rest points up
         vertical, horizontal = earth.OMEGA * math.sin(lat), earth.OMEGA * math.cos(lat)
         bias = [w + vertical * d for w, d in zip(gyro, down)]   # earth rate along down: -Ω sin(lat)
-        duration = len(inside) * self.BUCKET
         var = [self.arw ** 2 / duration + horizontal ** 2 * (1.0 - d * d) / 2 for d in down]
         return bias, var
 
