@@ -12,12 +12,19 @@ import numpy as np
 
 from agnav_fusion.attitude_kf import AttitudeKF
 from agnav_fusion.heading_chord import HeadingChord
-from agnav_fusion.nav_ekf import IA, IB, IC, IPHI, IR, IV, NavEKF
-from agnav_fusion.nav_settings import GRAVITY, cross, euler_rates
+from agnav_fusion.nav_ekf import IA, IB, IC, IPHI, IR, IV, N, NavEKF
+from agnav_fusion.nav_settings import GRAVITY, euler_rates
 from agnav_fusion.tilt_correction import antenna_offset, offset_heading_jacobian, tilt_variance
 
-POSE_XY_YAW, EKF_XY_PHI = np.ix_([0, 1, 5], [0, 1, 5]), np.ix_([0, 1, IPHI], [0, 1, IPHI])
-YAW_SIGN = np.array([[1, 1, -1], [1, 1, -1], [-1, -1, 1]])  # heading cw -> yaw ccw flips the cross terms
+# flat indices of the (x, y, yaw) block of the pose covariance and of the (X, Y, phi) block of P
+POSE_XY_YAW = np.ravel_multi_index(np.ix_([0, 1, 5], [0, 1, 5]), (6, 6)).ravel()
+EKF_XY_PHI = np.ravel_multi_index(np.ix_([0, 1, IPHI], [0, 1, IPHI]), (N, N)).ravel()
+YAW_SIGN = np.array([1, 1, -1, 1, 1, -1, -1, -1, 1])  # heading cw -> yaw ccw flips the cross terms
+
+
+def _cross(a, b):
+    """a x b of 3-sequences as a tuple of floats."""
+    return a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]
 
 
 class AgnavEstimator:
@@ -36,7 +43,7 @@ class AgnavEstimator:
         self.fix_speed = None      # (epoch, EKF speed after the fix): the fixes' own acceleration
         self.last_fix_t = math.inf  # epoch of the latest fix, accepted or not
         self.accel_miss = 0.0      # m/s^2, acceleration the speed model missed before the latest fix
-        self.alpha = np.zeros(3)   # rad/s^2, low-passed angular acceleration (lever-arm acceleration)
+        self.alpha = [0.0, 0.0, 0.0]  # rad/s^2, low-passed angular acceleration (lever-arm acceleration)
         self.fix_accel = 0.0       # m/s^2, speed change between fixes: compensates the inclinometer in accelerometer
         #                            mode (the accelerometer's own along-track reading holds the pitch: circular)
 
@@ -47,12 +54,13 @@ class AgnavEstimator:
         """-> (rate_cw, roll, pitch, heading, raw heading, nav, still, wheel, along-track accel) of this sample;
         force: specific force (base_link FLU m/s^2) or None."""
         s = self.m.settings
+        gyro = gyro.tolist()  # per sample on Python floats (the same arithmetic as numpy's, less overhead)
         roll0, pitch0 = (prev.roll, prev.pitch) if prev else (0.0, 0.0)
         droll, dpitch, dyaw = euler_rates(gyro, roll0, -pitch0)
         rate_cw = -dyaw
         lever_acc = self._lever_acceleration(gyro, prev, dt)
-        acc, acc_var = self._kinematic_acceleration(gyro, lever_acc) if s.accel_compensation else (np.zeros(3),
-                                                                                                  np.zeros(2))
+        acc, acc_var = self._kinematic_acceleration(gyro, lever_acc) if s.accel_compensation else ((0.0,) * 3,
+                                                                                                  (0.0, 0.0))
         # a pendulum reads roll + a_y/g and (REP-103) pitch - a_x/g, i.e. thesis nose-up pitch + a_x/g
         roll = self.roll_filter.update(droll, roll_incl, dt, acc[1] / GRAVITY, acc_var[1] / GRAVITY ** 2)
         pitch = self.pitch_filter.update(-dpitch, pitch_incl, dt, acc[0] / GRAVITY, acc_var[0] / GRAVITY ** 2)
@@ -61,7 +69,7 @@ class AgnavEstimator:
         self.wheel = None if wheel else self.wheel
         along = None
         if force is not None and roll is not None and pitch is not None:  # pitch: thesis nose up
-            along = float(np.clip(force[0] - GRAVITY * math.sin(pitch) - lever_acc[0], -s.max_accel, s.max_accel))
+            along = min(max(float(force[0]) - GRAVITY * math.sin(pitch) - lever_acc[0], -s.max_accel), s.max_accel)
         self.ekf.set_accel_mode(along is not None)
         if self.ekf.x is not None:
             self.propagate(rate_cw, dt, self.still, wheel, along, roll or 0.0)
@@ -96,23 +104,28 @@ class AgnavEstimator:
         from gyro differences through a lever_accel_tau low-pass (a vibratory gyro's noise differentiated per sample
         is metres per s^2 at the package; sway passes). The IMU sits in the package (incl_lever_flu)."""
         s = self.m.settings
+        alpha = self.alpha
         if prev is not None and dt > 0:
-            self.alpha += (1.0 - math.exp(-dt / s.lever_accel_tau)) * ((gyro - prev.body_rates) / dt - self.alpha)
+            gain = 1.0 - math.exp(-dt / s.lever_accel_tau)
+            alpha = self.alpha = [a + gain * ((g - g0) / dt - a)
+                                  for a, g, g0 in zip(alpha, gyro, prev.body_rates.tolist())]
         r = s.incl_lever_flu
-        return cross(self.alpha, r) + cross(gyro, cross(gyro, r))
+        a, b = _cross(alpha, r), _cross(gyro, _cross(gyro, r))
+        return a[0] + b[0], a[1] + b[1], a[2] + b[2]
 
     def _kinematic_acceleration(self, gyro, lever_acc):
         """Body (FLU) acceleration of the inclinometer: forward (accelerometer or A state), centripetal V*wz,
         and the lever-arm terms; -> (acceleration, variances of its forward and lateral parts)."""
         ekf = self.ekf
         if ekf.x is None or self.still:  # standing still: no acceleration but the lever's (the gyro's sway)
-            return lever_acc, np.zeros(2)
+            return lever_acc, (0.0, 0.0)
         if ekf.accel_mode:  # the fixes' speed change, smoothed: pitch-independent
             accel, accel_var = self.fix_accel, 0.0
         else:
-            accel, accel_var = ekf.x[IA], ekf.P[IA, IA]
-        acc = np.array([accel, ekf.x[IV] * gyro[2], 0.0]) + lever_acc
-        return acc, np.array([accel_var, ekf.P[IV, IV] * gyro[2] ** 2])
+            accel, accel_var = float(ekf.x[IA]), float(ekf.P[IA, IA])
+        wz = gyro[2]
+        return ((accel + lever_acc[0], float(ekf.x[IV]) * wz + lever_acc[1], 0.0 + lever_acc[2]),
+                (accel_var, float(ekf.P[IV, IV]) * wz ** 2))
 
     # ---- GNSS fix at its epoch ------------------------------------------------------------------------
     def white_fix_covariance(self, cov2):
@@ -299,7 +312,7 @@ class AgnavEstimator:
         if snap.nav is not None:
             x, P = snap.nav
             position[:2] = x[:2]
-            pose_cov[POSE_XY_YAW] = P[EKF_XY_PHI] * YAW_SIGN
+            pose_cov.put(POSE_XY_YAW, P.take(EKF_XY_PHI) * YAW_SIGN)
             twist_cov[0, 0] = P[IV, IV]
             twist_cov[5, 5] = P[IB, IB] + m.settings.ekf.rate_noise ** 2
             valid = self.heading_known and P[IPHI, IPHI] <= m.settings.heading_valid_sigma ** 2

@@ -25,7 +25,9 @@ from agnav_fusion import kalman
 
 IX, IY, IPHI, IB, IV, IA, IBX, IBY, IC, IK, IR, IW, IS = range(13)
 N = 13
-DIAGN = np.diag_indices(N)
+F_AT = np.ravel_multi_index(np.array([(IX, IPHI), (IX, IC), (IY, IPHI), (IY, IC), (IX, IK), (IY, IK), (IX, IV), (IY, IV),
+                                      (IPHI, IB), (IPHI, IS), (IV, IA), (IA, IA), (IBX, IBX), (IBY, IBY), (IC, IC),
+                                      (IR, IR)]).T, (N, N))  # F's entries that transition() fills
 
 
 @dataclass
@@ -68,7 +70,7 @@ class NavEKF:
         self.gnss_bias_var = 0.0  # m^2 per axis, the receiver's slow-error variance (split_fix_covariance)
         self.accel_mode = False   # A is the accelerometer bias (set_accel_mode)
         self.bias_changed = False  # the latest fix's slow-error variance is under a quarter or over 4x the one before
-        self._eye = np.eye(N)
+        self._F = np.eye(N)  # the transition matrix, refilled per step (a new one per step while logging)
         self._decay_dt, self._decay_f = None, None
         self._q_key, self._q = None, None
 
@@ -123,9 +125,11 @@ class NavEKF:
         return np.array([1.0, math.sin(self.x[IR])])
 
     def crab(self):
-        """(crab rad, variance)."""
-        h = self.crab_jacobian()
-        return float(h @ self.x[IC:IR]), float(h @ self.P[IC:IR, IC:IR] @ h)
+        """(crab rad, variance): h x and h P h^T for h = crab_jacobian(), on floats in numpy's order of operations."""
+        x, P = self.x, self.P
+        k = math.sin(x[IR])
+        pcc, pck, pkc, pkk = P[IC, IC], P[IC, IK], P[IK, IC], P[IK, IK]
+        return float(x[IC] + k * x[IK]), float((pcc + k * pkc) + (pck + k * pkk) * k)
 
     def _process_noise(self, dt, fb, fc):
         """Diagonal Q of one step (cached: dt, mode and receiver-bias variance repeat)."""
@@ -163,43 +167,40 @@ class NavEKF:
                              math.exp(-dt / s.crab_tau), math.exp(-dt / s.crab_roll_tau))
         return self._decay_f
 
-    def transition(self, dt, rate=0.0):
-        """Jacobian F of one propagation step at the current state (rate: the clockwise gyro rate)."""
+    def transition(self, dt, rate=0.0, F=None):
+        """Jacobian F of one propagation step at the current state (rate: the clockwise gyro rate); F: an identity
+        matrix, or one this method filled before, to fill (its other entries stay those of the identity)."""
         x = self.x.tolist()
         sin_rho = math.sin(x[IR])
         c = x[IPHI] + (x[IC] + sin_rho * x[IK])
+        sin_c, cos_c = math.sin(c), math.cos(c)
         fa, fb, fc, fr = self._decay(dt)
-        vc, vs = x[IV] * math.cos(c) * dt, -x[IV] * math.sin(c) * dt
-        F = self._eye.copy()
-        F[IX, IPHI] = F[IX, IC] = vc
-        F[IY, IPHI] = F[IY, IC] = vs
-        F[IX, IK], F[IY, IK] = vc * sin_rho, vs * sin_rho
-        F[IX, IV], F[IY, IV] = math.sin(c) * dt, math.cos(c) * dt
-        F[IPHI, IB], F[IPHI, IS] = -dt, rate * dt
-        F[IV, IA] = -dt if self.accel_mode else dt
-        F[IA, IA], F[IBX, IBX], F[IBY, IBY], F[IC, IC], F[IR, IR] = fa, fb, fb, fc, fr
+        vc, vs = x[IV] * cos_c * dt, -x[IV] * sin_c * dt
+        F = np.eye(N) if F is None else F
+        F.ravel()[F_AT] = (vc, vc, vs, vs, vc * sin_rho, vs * sin_rho, sin_c * dt, cos_c * dt, -dt, rate * dt,
+                           -dt if self.accel_mode else dt, fa, fb, fb, fc, fr)
         return F
 
     def predict(self, rate, dt, accel=None, roll=0.0):
         """Propagate with the clockwise yaw rate r (rad/s) over dt (s); accel: along-track acceleration (m/s^2,
         gravity-compensated) in accelerometer mode; roll (rad, right side down) drives the crab model."""
-        s = self.settings
-        F = self.transition(dt, rate)
+        F = self.transition(dt, rate, self._F if self.log is None else None)
         fa, fb, fc, fr = self._decay(dt)
-        x = self.x.copy()
+        x = self.x.tolist()  # Python floats: the same IEEE arithmetic as numpy scalars, a fraction of the cost
         v, c = x[IV], x[IPHI] + (x[IC] + math.sin(x[IR]) * x[IK])
         x[IX] += v * math.sin(c) * dt
         x[IY] += v * math.cos(c) * dt
         x[IPHI] = math.remainder(x[IPHI] + ((1.0 + x[IS]) * rate - x[IB]) * dt, 2 * math.pi)
         x[IV] += ((accel or 0.0) - x[IA]) * dt if self.accel_mode else x[IA] * dt
         x[IA] *= fa
-        x[IBX:IC] *= fb
+        x[IBX] *= fb
+        x[IBY] *= fb
         x[IC] *= fc
         x[IR] = roll + fr * (x[IR] - roll)
-        P = F @ self.P @ F.T
-        P[DIAGN] += self._process_noise(dt, fb, fc)
+        P = np.dot(np.dot(F, self.P), F.T)  # np.dot: the same dgemm as @, less overhead
+        P.ravel()[::N + 1] += self._process_noise(dt, fb, fc)
         self.P = P
-        self.x = x
+        self.x = x = np.array(x)
         if self.log is not None:
             self.log.append([F, x.copy(), self.P.copy(), x.copy(), self.P.copy()])
 

@@ -22,6 +22,7 @@ from agnav_fusion.nav_thesis import ThesisEstimator
 ESTIMATORS = {"agnav": AgnavEstimator, "thesis": ThesisEstimator}
 TWIST_COV = np.diag((1.0, 0.01, 0.01, 1e-4, 1e-4, 1e-4))  # of the output (the estimators fill what they know)
 BIG_VAR = 1e6  # of the output's unknown axes
+POSE_COV = np.diag((BIG_VAR, BIG_VAR, BIG_VAR, 0.0, 0.0, BIG_VAR))  # of the output, before the attitude variances
 DIFFERENCE_S = 12.0  # s of fixes a front end's fix-difference velocity may span (pipeline: 10 s)
 
 
@@ -282,8 +283,8 @@ class NavSensorModule:
         s, snap = self.settings, self.history[-1]
         vr, vp = self._attitude_variances()
         vr, vp = min(vr, BIG_VAR), min(vp, BIG_VAR)
-        pose_cov = np.zeros((6, 6))
-        pose_cov.flat[::7] = (BIG_VAR, BIG_VAR, BIG_VAR, vr, vp, BIG_VAR)
+        pose_cov = POSE_COV.copy()
+        pose_cov[3, 3], pose_cov[4, 4] = vr, vp
         twist_cov = TWIST_COV.copy()
         position = np.zeros(3)
         if self.last_fix is not None:
