@@ -43,6 +43,8 @@ class LagIdentifier:
         self.ms = np.zeros(s.points)         # mean square of the residual
         self.seen = 0.0                      # s of readings
         self.tau = None
+        self._grid_dt, self._grid_gain = None, None  # a grid step's length and its lag factors (the steps repeat)
+        self._tmp = np.empty(s.points)
 
     def update(self, rate, reading, accel_term, dt):
         if dt <= 0:
@@ -50,13 +52,13 @@ class LagIdentifier:
         if dt != self._dt:
             self._dt, self._keep = dt, math.exp(-dt / self.settings.highpass)
         keep = self._keep
-        self.theta = keep * self.theta + rate * dt
+        self.theta = theta = keep * self.theta + rate * dt
         if self._acc_prev is not None:
             self.acc_hp = keep * self.acc_hp + (accel_term - self._acc_prev)
         self._acc_prev = accel_term
         block = self._block
         block[0] += dt
-        block[1] += (self.theta + self.acc_hp) * dt
+        block[1] += (theta + self.acc_hp) * dt
         if reading is not None:
             if self._y_prev is not None:
                 self.y_hp = keep * self.y_hp + (reading - self._y_prev)
@@ -69,14 +71,26 @@ class LagIdentifier:
         return self.tau
 
     def _grid_step(self, dt, angle_sum, reading_sum, readings):
-        s = self.settings
-        self.u += -np.expm1(-dt / self.grid) * (angle_sum / dt - self.u)
+        """u += gain (angle mean - u), then the residual's slow mean and mean square; in place (one scratch
+        array: the same elementwise operations as the expressions in the comments)."""
+        s, u, tmp = self.settings, self.u, self._tmp
+        if dt != self._grid_dt:
+            self._grid_dt, self._grid_gain = dt, -np.expm1(-dt / self.grid)
+        np.subtract(angle_sum / dt, u, out=tmp)
+        tmp *= self._grid_gain
+        u += tmp                                      # u += gain * (angle_sum / dt - u)
         if not readings:
             return
-        r = reading_sum / readings - self.u
-        self.mean += (dt / s.highpass) * (r - self.mean)
+        r = np.subtract(reading_sum / readings, u)
+        np.subtract(r, self.mean, out=tmp)
+        tmp *= dt / s.highpass
+        self.mean += tmp                              # mean += (dt / highpass) * (r - mean)
         w = dt / s.window if self.seen >= s.window else dt / (self.seen + dt)
-        self.ms += w * ((r - self.mean) ** 2 - self.ms)
+        np.subtract(r, self.mean, out=tmp)
+        np.multiply(tmp, tmp, out=tmp)
+        tmp -= self.ms
+        tmp *= w
+        self.ms += tmp                                # ms += w * ((r - mean) ** 2 - ms)
         self.seen += dt
         if self.seen >= s.settle:
             self.tau = self._best()
@@ -87,9 +101,11 @@ class LagIdentifier:
         k = int(np.argmin(self.ms))
         if k < 2 or k > len(self.ms) - 3:
             return None
-        lo, mid, hi = self.ms[k - 1:k + 2]
-        if min(self.ms[k - 2], self.ms[k + 2]) < self.settings.contrast * mid:
+        ms = self.ms[k - 2:k + 3].tolist()
+        lo, mid, hi = ms[1:4]
+        if min(ms[0], ms[4]) < self.settings.contrast * mid:
             return None
         curv = lo - 2 * mid + hi
-        offset = 0.5 * (self.log_grid[k] - self.log_grid[k - 1]) * (lo - hi) / curv if curv > 0 else 0.0
-        return float(math.exp(self.log_grid[k] + offset))
+        log_tau, log_below = float(self.log_grid[k]), float(self.log_grid[k - 1])
+        offset = 0.5 * (log_tau - log_below) * (lo - hi) / curv if curv > 0 else 0.0
+        return math.exp(log_tau + offset)
