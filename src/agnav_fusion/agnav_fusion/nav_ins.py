@@ -42,7 +42,7 @@ class InsNavSettings:
     mount_yaw_sigma: float = math.radians(0.5)    # rad, IMU yaw mount error beyond TF (bracket squared to the vehicle
                                            # axis by eye, +-1 deg): the antenna lever in turns heads the IMU, the NHC
                                            # on straights the vehicle; unmodelled, added to the yaw variance
-    heading_valid_sigma: float = math.radians(3.0)  # rad: nothing is published before the yaw sigma (mount's included)
+    heading_valid_sigma: float = math.radians(1.5)  # rad: nothing is published before the yaw sigma (mount's included)
                                            # is below this once (an outage's growing sigma later stays published)
     ekf: InsEkfSettings = field(default_factory=InsEkfSettings)
     guard: InputGuardSettings = field(default_factory=lambda: InputGuardSettings(

@@ -35,10 +35,9 @@ from agnav_fusion.gnss_raw.ephemeris import satellite_states
 from agnav_fusion.gnss_raw.geometry import elevation_azimuth
 from agnav_fusion.gnss_raw.observations import CLIGHT
 from agnav_fusion.ins import earth, error_model as em, feedback
-from agnav_fusion.ins.constraints import CRAB
 from agnav_fusion.ins.lever_arm import lever_velocity
 
-DRIFT = CRAB + 1          # c·receiver clock drift [m/s]
+DRIFT = em.N_INS          # c·receiver clock drift [m/s] (after the INS states, crab and gyro scale)
 HEIGHT = DRIFT + 1        # antenna height reference [m] (height_aid)
 N_CORE = HEIGHT + 1       # ambiguities follow
 POS_COLS = (em.RX, em.RY, em.H, em.TX, em.TY, em.GAMMA)
@@ -141,8 +140,6 @@ class TightFilter:
         n = ins.n_states
         self.p = np.zeros((N_CORE, N_CORE))
         self.p[:n, :n] = ins.p
-        if n <= CRAB:
-            self.p[CRAB, CRAB] = 1e-6
         self.p[DRIFT, DRIFT] = self.c.sigma_drift_init ** 2
         self.x_drift, self.drift_ok = 0.0, False
         self.amb = np.zeros(0)

@@ -70,7 +70,7 @@ def initial_state(s, g, level, heading, heading_var, gyro_bias):
 
 
 def initial_variances(s, g, heading_var, crab=True, gyro_bias_var=None):
-    """Diagonal of the initial error covariance (the crab state appended when the constraint is on; gyro_bias_var:
+    """Diagonal of the initial error covariance, em.N_INS long (the crab's 0 without the constraint; gyro_bias_var:
     of a bias measured standing still, else gyro_bias_sigma0)."""
     r = earth.mean_radius(g.lat) + g.alt
     lever = float(np.linalg.norm(s.lever_gnss_frd[:2]))
@@ -85,4 +85,4 @@ def initial_variances(s, g, heading_var, crab=True, gyro_bias_var=None):
         var[em.GAMMA], var[em.BETA] = 1.0, 2.0
     else:
         var[em.GAMMA], var[em.BETA] = heading_var, heading_var ** 2 / 2
-    return np.append(var, s.nhc.crab_var(0.0)) if crab else var
+    return np.append(var, (s.nhc.crab_var(0.0) if crab else 0.0, s.error.gyro_scale_sigma ** 2))

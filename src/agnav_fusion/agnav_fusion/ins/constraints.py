@@ -19,7 +19,7 @@ from . import error_model as em
 from .measurements import Linearized
 from .mechanization import T, skew
 
-CRAB = em.N_STATES          # index of the augmented crab state (rad, + body velocity to the right, FRD)
+CRAB = em.CRAB              # index of the augmented crab state (rad, + body velocity to the right, FRD)
 
 
 @dataclass

@@ -5,8 +5,9 @@
 (solution history, fixes applied against the INS state at their epoch), chi-square innovation
 gating, Joseph-form update with closed-loop correction, outage coasting and health statistics.
 [IMPL] A non-holonomic constraint with an augmented crab state (`constraints`) makes the heading observable on
-straight runs and bounds outage drift; fix-difference velocities only seed the in-motion alignment (they lag and
-repeat the fixes); a filter whose fixes stay rejected re-aligns from them.
+straight runs and bounds outage drift; an augmented z gyro scale-factor state, learnt in turns, keeps a U-turn from
+leaving its heading error (0.5 % of 180° is 0.9°); fix-difference velocities only seed the in-motion alignment (they
+lag and repeat the fixes); a filter whose fixes stay rejected re-aligns from them.
 """
 import copy
 import math
@@ -31,16 +32,16 @@ MAX_GAP_STEPS = 1000        # sub-steps bridging one IMU gap at most
 
 
 class InsEkf:
-    """Strapdown INS + 16-state error EKF; feed `add_imu` and `add_gnss` in arrival order."""
+    """Strapdown INS + 16-state error EKF + crab and z gyro scale (em.N_INS); feed `add_imu` and `add_gnss` in
+    arrival order."""
 
     def __init__(self, settings=None):
         self.s = settings or InsEkfSettings()
         self.mech = None
         self.p = None
-        self.psd = self.s.error.psd()
+        e = self.s.error        # crab noise: roll-dependent (propagate_covariance); scale: a slow random walk
+        self.psd = np.append(e.psd(), (0.0, 2.0 * e.gyro_scale_sigma ** 2 / e.gyro_scale_tau))
         self.nhc = NonHolonomic(self.s.nhc, self.s.lever_base_frd) if self.s.nhc.enabled else None
-        if self.nhc is not None:
-            self.psd = np.append(self.psd, 0.0)   # crab noise: roll-dependent, added in _propagate_covariance
         self.crab = 0.0
         self._crab_mean = 0.0             # the roll-driven mean the crab state deviates from (propagate_covariance)
         self._nhc_t = -math.inf
@@ -70,7 +71,7 @@ class InsEkf:
     # ----------------------------------------------------------------- public API
     @property
     def n_states(self):
-        return self.p.shape[0] if self.p is not None else em.N_STATES
+        return self.p.shape[0] if self.p is not None else em.N_INS
 
     @property
     def alignment(self):
@@ -171,16 +172,14 @@ class InsEkf:
         out = {"alignment": self.alignment, "imu_samples": self.stats["imu"], "gnss_epochs": self.stats["gnss"]}
         for name, (n, total) in self.stats["nis"].items():
             out[f"nis_mean_{name}"] = total / n
-        for kind in ("accepted", "rejected", "bridged"):
-            for name, count in self.stats[kind].items():
-                out[f"{kind}_{name}"] = count
+        out.update({f"{k}_{name}": c for k in ("accepted", "rejected", "bridged") for name, c in self.stats[k].items()})
         if self.p is not None:
             out["heading_sigma_deg"] = math.degrees(self.heading_sigma())
             out["gnss_age_s"] = self.gnss_age()
         return out
 
     # ------------------------------------------------- extension API (augmented filters, hand-over)
-    # An augmented filter (gnss_raw.tight) owns a P whose first n_states rows are these error states (16 + crab).
+    # An augmented filter (gnss_raw.tight) owns a P whose first n_states rows are these error states (em.N_INS).
     def step(self, t, gyro_frd, accel_frd):
         """Mechanization only, up to t (no covariance, constraint or GNSS processing)."""
         dt, self.t = t - self.t, t
@@ -189,13 +188,16 @@ class InsEkf:
 
     def propagate_covariance(self, p, dt, q_extra=()):
         """Φ P Φᵀ + U Δt (5-9-4, 5-6-2), Φ = I + F Δt over dt at the last mechanization step; crab: its roll-driven
-        mean (follows the roll at once) plus a first-order Gauss-Markov deviation, steady σ from the roll. Rows beyond
-        n_states: Φ = I, white noise `q_extra` [unit²/s]."""
+        mean (at once) plus a first-order Gauss-Markov deviation, steady σ from the roll; the z scale error acts as
+        the z gyro bias times the z rate. Rows beyond n_states: Φ = I, white noise `q_extra` [unit²/s]."""
         st = self.mech.state
         rho, omega, a_c, c_bc = self._f
         lat, _, alpha = st.geo()
         phi = em.transition(self.s.error, st.v, a_c, rho, omega, em.body_to_c(c_bc), lat, st.h, alpha, dt, len(p))
         q = (np.concatenate([self.psd, np.asarray(q_extra, dtype=float)]) if len(q_extra) else self.psd) * dt
+        bgz = em.BG.start + 2
+        phi[:, em.GYRO_SCALE] = phi[:, bgz] * self.omega_b[2]
+        phi[bgz, em.GYRO_SCALE], phi[em.GYRO_SCALE, em.GYRO_SCALE] = 0.0, 1.0
         if self.nhc is not None:
             (_, _, _), (_, _, _), (_, c7, c8) = st.dcm_rows()
             a, roll = min(dt / self.s.nhc.crab_tau, 1.0), math.atan2(c7, c8)
@@ -212,6 +214,7 @@ class InsEkf:
         """Closed loop: x[:n_states] fed back into the mechanization and crab (then zero); returns P after the
         azimuth reset (rows beyond n_states: extra states, untouched by the feedback)."""
         feedback.apply(self.mech, x[:em.N_STATES])
+        self.mech.gyro_scale += float(x[em.GYRO_SCALE])
         if self.nhc is not None:
             self.crab -= x[CRAB]
         p = feedback.azimuth_reset(p, x[em.GAMMA], x[em.BETA])
@@ -238,13 +241,16 @@ class InsEkf:
 
     def adopt(self, mech, p, crab=0.0, t=None, omega_b=None):
         """Take over an INS state (e.g. export_state() of a tightly coupled filter's INS): P's first n_states
-        rows/columns (a 16x16 P gets the crab's steady variance); the solution history restarts here."""
+        rows/columns (a 16x16 P gets the crab's steady variance and the scale's initial one); the solution history
+        restarts here."""
         self.mech, self.crab, self.t = mech, crab, t
-        n, k = em.N_STATES + (self.nhc is not None), min(len(p), em.N_STATES + (self.nhc is not None))
-        self.p = np.zeros((n, n))
+        k = min(len(p), em.N_INS)
+        self.p = np.zeros((em.N_INS, em.N_INS))
         self.p[:k, :k] = np.asarray(p)[:k, :k]
-        if k < n:
+        if k <= CRAB and self.nhc is not None:
             self.p[CRAB, CRAB] = self.s.nhc.crab_var(mech.state.euler()[0])
+        if k <= em.GYRO_SCALE:
+            self.p[em.GYRO_SCALE, em.GYRO_SCALE] = self.s.error.gyro_scale_sigma ** 2
         self._crab_mean = self.s.nhc.crab_mean(mech.state.euler()[0], self.heading_sigma()) if self.nhc else 0.0
         self.omega_b = np.zeros(3) if omega_b is None else np.array(omega_b, dtype=float)
         self._f, self._cov_dt, self._gap_var, self._pending, self._corr = None, 0.0, None, [], np.zeros(6)
@@ -391,9 +397,4 @@ class InsEkf:
         p = self.feedback(x, p)
         after = (st.lat, st.lon, st.h, *st.v_ned_floats())
         self._corr = self._corr + np.array([a - b for a, b in zip(after, before)])    # a new array (history)
-        if p[em.GAMMA, em.GAMMA] > 1.0:          # no worse than an unknown heading
-            scale = 1.0 / math.sqrt(p[em.GAMMA, em.GAMMA])
-            p[em.GAMMA, :] *= scale
-            p[:, em.GAMMA] *= scale
-            p[em.BETA, em.BETA] = 0.5 * p[em.GAMMA, em.GAMMA] ** 2 + 1e-12
-        self.p = p
+        self.p = feedback.bound_heading(p)

@@ -17,6 +17,8 @@ BA = slice(8, 11)
 BG = slice(11, 14)
 GAMMA, BETA = 14, 15
 N_STATES = 16
+CRAB, GYRO_SCALE = 16, 17  # augmented (ekf): crab (constraints), z gyro scale-factor error [-]
+N_INS = 18
 V3 = (VX, VY, VZ)
 
 
@@ -30,6 +32,8 @@ class ErrorModelSettings:
     gyro_bias_sigma: float = 2.0e-4  # steady-state GM sigma of the gyro bias state [rad/s]
     accel_bias_tau: float = 600.0    # [s]
     gyro_bias_tau: float = 600.0     # [s]
+    gyro_scale_sigma: float = 0.005  # initial sigma of the z gyro scale-factor error (data sheet), learnt in turns
+    gyro_scale_tau: float = 3600.0   # [s], random walk reaching gyro_scale_sigma over this time (temperature)
     position_psd: float = 1.0e-18    # unmodelled position error u_r [rad^2/s]
     height_psd: float = 1.0e-4       # u_h [m^2/s]
 

@@ -58,3 +58,13 @@ def azimuth_reset(p, gamma, beta):
     p[:, g] = jgg * p[:, g] + jgb * p[:, b]
     p[:, b] = 0.0
     return p
+
+
+def bound_heading(p):
+    """P no worse than an unknown heading: γ's row and column scaled to σ ≤ 1 rad, β's variance with it (in place)."""
+    if p[em.GAMMA, em.GAMMA] > 1.0:
+        scale = 1.0 / math.sqrt(p[em.GAMMA, em.GAMMA])
+        p[em.GAMMA, :] *= scale
+        p[:, em.GAMMA] *= scale
+        p[em.BETA, em.BETA] = 0.5 * p[em.GAMMA, em.GAMMA] ** 2 + 1e-12
+    return p

@@ -180,6 +180,7 @@ class Mechanization:
     state: InsState
     accel_bias: np.ndarray = field(default_factory=lambda: np.zeros(3))
     gyro_bias: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    gyro_scale: float = 0.0     # z gyro scale-factor error: rate = (gyro - bias) (1 - gyro_scale) about z
 
     def step(self, gyro_frd, accel_frd, dt):
         """Advance by dt with rate [rad/s] and specific force [m/s^2] in B (FRD); returns the transport
@@ -201,7 +202,7 @@ class Mechanization:
         # steps 3-5: body rotation relative to C, quaternion update (5-3-7..10)
         (d0, d1, d2), (d3, d4, d5), (d6, d7, d8) = s.dcm_rows()
         w0, w1, w2 = (r0 + o0) * dt, -((r1 + o1) * dt), -((0.0 + o2) * dt)
-        self.rate = rx, ry, rz = gx - bgx, gy - bgy, gz - bgz              # bias-corrected body rate
+        self.rate = rx, ry, rz = gx - bgx, gy - bgy, (gz - bgz) * (1.0 - self.gyro_scale)   # corrected body rate
         q = quaternion.increment(rx * dt - (d0 * w0 + d3 * w1 + d6 * w2), ry * dt - (d1 * w0 + d4 * w1 + d7 * w2),
                                  rz * dt - (d2 * w0 + d5 * w1 + d8 * w2), *s.q.tolist())
         s.q = np.array(q)
