@@ -33,6 +33,19 @@ def euler_from_quaternion(x, y, z, w):
     return roll, pitch, yaw
 
 
+def matrix_from_quaternion(q):
+    """3x3 rotation matrix of a quaternion (x, y, z, w), normalised first: scipy's Rotation.from_quat(q).as_matrix(),
+    the same operations (bit for bit, tested), without importing scipy (start-up of every graph)."""
+    x, y, z, w = (float(v) for v in q)
+    n = math.sqrt(x * x + y * y + z * z + w * w)
+    x, y, z, w = x / n, y / n, z / n, w / n
+    x2, y2, z2, w2 = x * x, y * y, z * z, w * w
+    xy, zw, xz, yw, yz, xw = x * y, z * w, x * z, y * w, y * z, x * w
+    return np.array([[x2 - y2 - z2 + w2, 2 * (xy - zw), 2 * (xz + yw)],
+                     [2 * (xy + zw), -x2 + y2 - z2 + w2, 2 * (yz - xw)],
+                     [2 * (xz - yw), 2 * (yz + xw), -x2 - y2 + z2 + w2]])
+
+
 def rotation_matrix(roll, pitch, yaw):
     """3x3 body(FLU)->ENU matrix R_z(yaw) R_y(pitch) R_x(roll)."""
     cr, sr = math.cos(roll), math.sin(roll)

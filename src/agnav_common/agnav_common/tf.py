@@ -1,6 +1,5 @@
 """Small TF helper (tf2_ros is not on PyPI): transform lookup along the TF tree, broadcasters, transform builder."""
 import numpy as np
-from scipy.spatial.transform import Rotation
 from geometry_msgs.msg import TransformStamped
 from tf2_msgs.msg import TFMessage
 
@@ -75,12 +74,14 @@ class TfBuffer:
 
 def _compose(a, b):
     """a∘b for transforms (xyz, quat xyzw): frame A->B then B->C gives A->C."""
+    from scipy.spatial.transform import Rotation  # only for chains of frames: most graphs start without scipy
     ra = Rotation.from_quat(a[1])
     return ra.apply(b[0]) + a[0], (ra * Rotation.from_quat(b[1])).as_quat()
 
 
 def _inverse(a):
     """B->A from A->B."""
+    from scipy.spatial.transform import Rotation
     r = Rotation.from_quat(a[1]).inv()
     return -r.apply(a[0]), r.as_quat()
 

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from agnav_common.diagnostics import ERROR, OK, WARN, Diagnostics
-from agnav_common.frames import quaternion_from_euler
+from agnav_common.frames import matrix_from_quaternion, quaternion_from_euler
 from agnav_common.message_factory import new_message
 from agnav_common.node_main import main_for
 from agnav_common.parameters import declare, descriptor, leaves
@@ -30,7 +30,6 @@ from agnav_msgs.msg import GnssNavData, GnssObservations, GnssStatus, Inclinatio
 from geometry_msgs.msg import PointStamped, TwistWithCovarianceStamped
 from nav_msgs.msg import Odometry
 from rclpy.node import Node
-from scipy.spatial.transform import Rotation
 from sensor_msgs.msg import Imu, NavSatFix
 
 from agnav_fusion.backends import ESTIMATOR_DOC, make_backend, settings_for
@@ -173,7 +172,7 @@ class NavSensorModuleNode(Node):
             return False
         imu, gnss = mounts
         incl = self.tf.lookup(self.frames["base"], self.frames["inclinometer"])
-        self.pipeline.set_mounts(Rotation.from_quat(imu[1]).as_matrix(), gnss[0], imu[0] if incl is None else incl[0],
+        self.pipeline.set_mounts(matrix_from_quaternion(imu[1]), gnss[0], imu[0] if incl is None else incl[0],
                                  imu[0])
         return True
 

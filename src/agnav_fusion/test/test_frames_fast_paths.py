@@ -4,7 +4,7 @@ import math
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from agnav_common.frames import heading_from_yaw, wrap_angle, yaw_from_heading
+from agnav_common.frames import heading_from_yaw, matrix_from_quaternion, wrap_angle, yaw_from_heading
 from agnav_fusion.odom_frame import OdomFrame
 
 
@@ -45,3 +45,12 @@ def test_odom_frame_matches_scipy_composition():
                            rtol=0, atol=1e-12)
         assert np.allclose(r_odom.as_matrix(), Rotation.from_euler("ZYX", [odom.yaw, rpy[1], rpy[0]]).as_matrix(),
                            rtol=0, atol=1e-12)
+
+
+def test_matrix_from_quaternion_is_scipys_bit_for_bit():
+    """The mount rotation without scipy: the same bits as Rotation.from_quat(q).as_matrix(), unnormalised too."""
+    rng = np.random.default_rng(11)
+    quats = [q * s for q, s in zip(rng.normal(size=(3000, 4)), 10.0 ** rng.uniform(-3, 3, 3000))]
+    quats += [np.array([0.0, 0.0, 0.0, 1.0]), np.array([1.0, 0.0, 0.0, 0.0]), np.array([0.0, 0.0, -0.0, -1.0])]
+    for q in quats:
+        assert np.array_equal(matrix_from_quaternion(q), Rotation.from_quat(q).as_matrix()), q
