@@ -6,6 +6,7 @@ from agnav_fusion.gnss_raw.observations import ObsEpoch
 from agnav_fusion.gnss_raw.switching import INS_ONLY, LOOSE, TIGHT, select_mode
 from agnav_fusion.gnss_raw.tight import TightFilter, antenna_state
 from agnav_fusion.ins import InsEkf, InsEkfSettings, InsState, Mechanization
+from agnav_fusion.ins import error_model as em
 
 
 def epoch(sats, code=20e6):
@@ -34,17 +35,18 @@ def aligned_ekf():
 
 def test_hand_over_keeps_state_and_covariance():
     ekf = aligned_ekf()
-    assert ekf.p.shape == (17, 17) and ekf.p[16, 16] > 0          # crab added with its steady variance
+    n = em.N_INS                  # crab and gyro scale added with their steady / initial variances
+    assert ekf.p.shape == (n, n) and ekf.p[em.CRAB, em.CRAB] > 0 and ekf.p[em.GYRO_SCALE, em.GYRO_SCALE] > 0
     for k in range(1, 51):
         ekf.add_imu(k * 0.01, np.zeros(3), np.array([0.0, 0.0, -9.8]))
     before = antenna_state(ekf.mech, ekf.s.lever_gnss_frd, ekf.omega_b)
     tight = TightFilter.from_ins(ekf, np.zeros(3))
-    assert np.array_equal(tight.p[:17, :17], ekf.p) and tight.mech is not ekf.mech
+    assert np.array_equal(tight.p[:n, :n], ekf.p) and tight.mech is not ekf.mech
     assert np.allclose(tight.antenna()[0], before[0], atol=0) and np.allclose(tight.antenna()[1], before[1], atol=0)
     for k in range(51, 101):
         tight.add_imu(k * 0.01, np.zeros(3), np.array([0.0, 0.0, -9.8]))
-    tight.p[17:, :] = tight.p[:, 17:] = 0.0          # drift/ambiguity rows are dropped on the way back
+    tight.p[n:, :] = tight.p[:, n:] = 0.0          # drift/ambiguity rows are dropped on the way back
     state = tight.export_state()
     ekf.adopt(**state)
-    assert ekf.t == tight.t and np.array_equal(ekf.p, tight.p[:17, :17]) and ekf.crab == tight.ins.crab
+    assert ekf.t == tight.t and np.array_equal(ekf.p, tight.p[:n, :n]) and ekf.crab == tight.ins.crab
     assert np.allclose(antenna_state(ekf.mech, ekf.s.lever_gnss_frd, ekf.omega_b)[0], tight.antenna()[0], atol=0)
