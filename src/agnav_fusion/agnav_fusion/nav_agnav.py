@@ -9,6 +9,7 @@ inside (heading clockwise from north, pitch nose up); NavSensorModule converts a
 import math
 
 import numpy as np
+from agnav_common.frames import cross_floats
 
 from agnav_fusion.attitude_kf import AttitudeKF
 from agnav_fusion.heading_chord import HeadingChord
@@ -20,11 +21,6 @@ from agnav_fusion.tilt_correction import antenna_offset, offset_heading_jacobian
 POSE_XY_YAW = np.ravel_multi_index(np.ix_([0, 1, 5], [0, 1, 5]), (6, 6)).ravel()
 EKF_XY_PHI = np.ravel_multi_index(np.ix_([0, 1, IPHI], [0, 1, IPHI]), (N, N)).ravel()
 YAW_SIGN = np.array([1, 1, -1, 1, 1, -1, -1, -1, 1])  # heading cw -> yaw ccw flips the cross terms
-
-
-def _cross(a, b):
-    """a x b of 3-sequences as a tuple of floats."""
-    return a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]
 
 
 class AgnavEstimator:
@@ -110,7 +106,7 @@ class AgnavEstimator:
             alpha = self.alpha = [a + gain * ((g - g0) / dt - a)
                                   for a, g, g0 in zip(alpha, gyro, prev.body_rates.tolist())]
         r = s.incl_lever_flu
-        a, b = _cross(alpha, r), _cross(gyro, _cross(gyro, r))
+        a, b = cross_floats(alpha, r), cross_floats(gyro, cross_floats(gyro, r))
         return a[0] + b[0], a[1] + b[1], a[2] + b[2]
 
     def _kinematic_acceleration(self, gyro, lever_acc):
