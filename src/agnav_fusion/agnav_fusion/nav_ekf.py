@@ -27,7 +27,7 @@ IX, IY, IPHI, IB, IV, IA, IBX, IBY, IC, IK, IR, IW, IS = range(13)
 N = 13
 F_AT = np.ravel_multi_index(np.array([(IX, IPHI), (IX, IC), (IY, IPHI), (IY, IC), (IX, IK), (IY, IK), (IX, IV), (IY, IV),
                                       (IPHI, IB), (IPHI, IS), (IV, IA), (IA, IA), (IBX, IBX), (IBY, IBY), (IC, IC),
-                                      (IR, IR)]).T, (N, N))  # F's entries that transition() fills
+                                      (IR, IR)]).T, (N, N))  # F's entries that predict() fills
 
 
 @dataclass
@@ -70,7 +70,7 @@ class NavEKF:
         self.gnss_bias_var = 0.0  # m^2 per axis, the receiver's slow-error variance (split_fix_covariance)
         self.accel_mode = False   # A is the accelerometer bias (set_accel_mode)
         self.bias_changed = False  # the latest fix's slow-error variance is under a quarter or over 4x the one before
-        self._F = np.eye(N)  # the transition matrix, refilled per step (a new one per step while logging)
+        self._F = np.eye(N)  # the transition matrix, refilled per step
         self._decay_dt, self._decay_f = None, None
         self._q_key, self._q = None, None
 
@@ -167,29 +167,21 @@ class NavEKF:
                              math.exp(-dt / s.crab_tau), math.exp(-dt / s.crab_roll_tau))
         return self._decay_f
 
-    def transition(self, dt, rate=0.0, F=None):
-        """Jacobian F of one propagation step at the current state (rate: the clockwise gyro rate); F: an identity
-        matrix, or one this method filled before, to fill (its other entries stay those of the identity)."""
-        x = self.x.tolist()
-        sin_rho = math.sin(x[IR])
-        c = x[IPHI] + (x[IC] + sin_rho * x[IK])
-        sin_c, cos_c = math.sin(c), math.cos(c)
-        fa, fb, fc, fr = self._decay(dt)
-        vc, vs = x[IV] * cos_c * dt, -x[IV] * sin_c * dt
-        F = np.eye(N) if F is None else F
-        F.ravel()[F_AT] = (vc, vc, vs, vs, vc * sin_rho, vs * sin_rho, sin_c * dt, cos_c * dt, -dt, rate * dt,
-                           -dt if self.accel_mode else dt, fa, fb, fb, fc, fr)
-        return F
-
     def predict(self, rate, dt, accel=None, roll=0.0):
         """Propagate with the clockwise yaw rate r (rad/s) over dt (s); accel: along-track acceleration (m/s^2,
         gravity-compensated) in accelerometer mode; roll (rad, right side down) drives the crab model."""
-        F = self.transition(dt, rate, self._F if self.log is None else None)
-        fa, fb, fc, fr = self._decay(dt)
         x = self.x.tolist()  # Python floats: the same IEEE arithmetic as numpy scalars, a fraction of the cost
-        v, c = x[IV], x[IPHI] + (x[IC] + math.sin(x[IR]) * x[IK])
-        x[IX] += v * math.sin(c) * dt
-        x[IY] += v * math.cos(c) * dt
+        fa, fb, fc, fr = self._decay(dt)
+        v, sin_rho = x[IV], math.sin(x[IR])
+        c = x[IPHI] + (x[IC] + sin_rho * x[IK])
+        sin_c, cos_c = math.sin(c), math.cos(c)
+        # Jacobian F at the state before the step: one matrix refilled (a new one per step while logging)
+        F = self._F if self.log is None else np.eye(N)
+        vc, vs = v * cos_c * dt, -v * sin_c * dt
+        F.ravel()[F_AT] = (vc, vc, vs, vs, vc * sin_rho, vs * sin_rho, sin_c * dt, cos_c * dt, -dt, rate * dt,
+                           -dt if self.accel_mode else dt, fa, fb, fb, fc, fr)
+        x[IX] += v * sin_c * dt
+        x[IY] += v * cos_c * dt
         x[IPHI] = math.remainder(x[IPHI] + ((1.0 + x[IS]) * rate - x[IB]) * dt, 2 * math.pi)
         x[IV] += ((accel or 0.0) - x[IA]) * dt if self.accel_mode else x[IA] * dt
         x[IA] *= fa
