@@ -121,6 +121,16 @@ class AttitudeKF:
         if self._x is not None:
             self._gyro_only = [self._x, self._p, 0.0]
 
+    def add_bias_variance(self, var):
+        """The gyro bias may have moved by this much (rad/s)^2 (a vibratory gyro's motion bias at a start); the
+        gyro-only copy takes it too."""
+        if self._p is not None:
+            p = self._p
+            self._p = (p[0], p[1], p[2], p[3] + var, p[4], p[5])
+        if self._gyro_only is not None:
+            p = self._gyro_only[1]
+            self._gyro_only[1] = (p[0], p[1], p[2], p[3] + var, p[4], p[5])
+
     def revert(self):
         """The acceleration removed from the readings since the checkpoint was wrong (a start or a braking seen late
         by the GNSS): the gyro-only copy replaces the filter, so the gyro bias is not bent by it."""

@@ -128,9 +128,9 @@ class AgnavEstimator:
         """The receiver's slow error becomes the EKF's bias states; the rest is white."""
         return self.ekf.split_fix_covariance(cov2)[0]
 
-    def fix(self, k, t, xy, R, v_ref, vel, vel_var, speed, differenced=False):
-        """Fuse a tilt-corrected fix (and its receiver velocity; `differenced`: a velocity from fix differences) at
-        history sample k; True when the position was accepted."""
+    def fix(self, k, t, xy, R, v_ref, vel, vel_var, speed, differenced=0.0):
+        """Fuse a tilt-corrected fix (and its receiver velocity; `differenced`: the baseline in s of a velocity from
+        fix differences, 0 for a receiver's) at history sample k; True when the position was accepted."""
         m, s = self.m, self.m.settings
         if speed is None and m.last_fix is not None:  # V from successive tilt-corrected fixes
             speed = float(np.hypot(*(xy - m.last_fix[1][:2]))) / max(t - m.last_fix[0], 1e-3)
@@ -140,19 +140,26 @@ class AgnavEstimator:
         still_below = max(s.stationary_speed, 2.0 * s.velocity_sigma) if doppler else s.stationary_speed
         creeping = doppler or self.ekf.x is None or abs(self.ekf.x[IV]) < still_below
         was_still, self.still = self.still, speed is not None and speed < still_below and creeping
-        self.accel_miss = self._check_speed_model(k, t, speed, vel_var, doppler)
+        self.accel_miss = self._check_speed_model(k, t, speed, vel_var, doppler, differenced)
         accepted = self._fuse_fix(k, t, xy, R, v_ref, vel_var, speed, was_still and not self.still, doppler,
                                   differenced)
         self.last_fix_t = t
         return accepted
 
-    def _check_speed_model(self, k, t, speed, vel_var, doppler):
+    def _check_speed_model(self, k, t, speed, vel_var, doppler, baseline=0.0):
         """The GNSS speed tells whether the speed model's acceleration since the last epoch was right (it is also
         what was removed from the inclinometers): beyond doubt wrong (a start, a braking), the attitude filters go
         back to their gyro-only copies; agreeing, the copies restart here; in doubt, they wait. -> the acceleration
         a receiver (Doppler) speed says the model missed (m/s^2) when not agreeing, else 0: its square joins the A
-        state's variance (a fix-difference speed lags by half its baseline: no such news)."""
-        s, nav = self.m.settings, self.m.history[k].nav
+        state's variance (a fix-difference speed, the mean over its `baseline` s, is compared with the model at the
+        baseline's middle: no such news)."""
+        s, hist = self.m.settings, self.m.history
+        if baseline:
+            mid = hist[k].t - baseline / 2
+            if hist[0].t > mid:
+                return 0.0
+            k = max(i for i in range(k + 1) if hist[i].t <= mid)
+        nav = hist[k].nav
         if speed is None or vel_var is None or nav is None:
             return 0.0
         miss = speed - nav[0][IV]
@@ -168,21 +175,27 @@ class AgnavEstimator:
     def _fuse_fix(self, k, t, xy, R, v_ref, vel_var, speed, started, doppler, differenced):
         s, hist, ekf = self.m.settings, self.m.history, self.ekf
         snap = hist[k]
-        first, verdict = ekf.x is None, True
+        first, verdict, replayed = ekf.x is None, True, []
         if first:  # position and speed from the first fix; heading unknown until moving
             ekf.initialise(xy, R, snap.heading, speed or 0.0)
             ekf.P[IPHI, IPHI] = math.pi ** 2
         else:
             ekf.x, ekf.P = snap.nav[0].copy(), snap.nav[1].copy()
-            if started:  # the gyro bias learnt standing still shifts once the vehicle moves; the start's
-                ekf.P[IB, IB] += s.motion_bias_sigma ** 2  # acceleration is news to the A state
+            if ekf.log:  # the samples after the epoch are predicted again below: their log entries go (back if refused)
+                cut = max(len(ekf.log) - (len(hist) - 1 - k), 0)
+                replayed, ekf.log[cut:] = ekf.log[cut:], []
+            if started:  # the gyro biases learnt standing still shift once the vehicle moves; the start's
+                ekf.P[IB, IB] += s.motion_bias_sigma ** 2  # acceleration is news to the A state, and the speed
+                ekf.P[IV, IV] += (s.start_accel_sigma * min(t - self.last_fix_t, 1.0)) ** 2  # it gave since then
+                for tilt in (self.roll_filter, self.pitch_filter):
+                    tilt.add_bias_variance(s.motion_bias_sigma ** 2)
             ekf.P[IA, IA] += max(self.accel_miss ** 2, s.start_accel_sigma ** 2 if started else 0.0)
             if ekf.bias_changed:
                 ekf.restart_bias()
         if first:
             pass
         elif not self.heading_known:
-            self._fix_before_heading(snap, t, xy, R, v_ref, vel_var, speed, doppler)
+            self._fix_before_heading(snap, t, xy, R, v_ref, vel_var, speed, doppler, differenced)
         else:
             jac = offset_heading_jacobian(self.m.lever, snap.heading, snap.pitch, snap.roll)
             y, S, d2, H = ekf.position_innovation(xy, R, jac)
@@ -191,13 +204,14 @@ class AgnavEstimator:
             verdict = self.m.gate(t, d2)
             if verdict is False and not doppler:  # a refused fix's own difference velocity is no better
                 ekf.x, ekf.P = hist[-1].nav[0].copy(), hist[-1].nav[1].copy()
+                ekf.log = None if ekf.log is None else ekf.log + replayed
                 return False
             if verdict is None:  # fixes refused for long: position and heading diverged; restart both
                 ekf.reset_position(xy, R)
                 self._forget_heading()
             elif verdict:
                 ekf.update(y, S, H, R)
-            if self.still and doppler:  # standing: zero speed (noise has no direction)
+            if self.still:  # standing: zero speed (noise has no direction)
                 self._fuse(self._standstill(speed), gated=False)
             elif s.use_gnss_velocity and v_ref is not None and not differenced:  # even when its fix is refused
                 Rv = (vel_var + self.m.lever_velocity_variance()) * np.eye(2)
@@ -223,7 +237,7 @@ class AgnavEstimator:
             hist[j].nav, hist[j].heading = (ekf.x.copy(), ekf.P.copy()), ekf.x[IPHI]
         return verdict is not False
 
-    def _fix_before_heading(self, snap, t, xy, R, v_ref, vel_var, speed, doppler):
+    def _fix_before_heading(self, snap, t, xy, R, v_ref, vel_var, speed, doppler, baseline):
         """No heading yet: decoupled heading and crab, speed fused, the position follows the fixes; the heading comes
         from the chord of the fixes (heading_chord.py) once it is known within chord_max_sigma (published once the
         filter has it within heading_valid_sigma); the receiver's
@@ -233,11 +247,13 @@ class AgnavEstimator:
         for i, var in ((IPHI, math.pi ** 2), (IB, ekf.P[IB, IB]), (IC, s.ekf.crab_sigma ** 2)):
             ekf.P[i, :] = ekf.P[:, i] = 0.0
             ekf.P[i, i] = var
-        if self.still and doppler:
+        if self.still:
             self._fuse(self._standstill(speed), gated=False)
         elif doppler and speed > 3.0 * math.sqrt(vel_var):  # (a slower norm is biased by the noise)
             # needs no heading; ungated: the start of motion outruns the speed model, and nothing is published yet
             self._fuse(ekf.speed_innovation(speed, vel_var), gated=False)
+        elif baseline and baseline <= s.history and not ekf.accel_mode and speed > 3.0 * math.sqrt(vel_var):
+            self._fuse(ekf.speed_innovation(speed, vel_var, baseline / 2), gated=False)  # mean speed of the baseline
         white = max(float(np.trace(R)) / 2 - heading_part, 0.0)
         antenna = xy + antenna_offset(m.lever, snap.heading, snap.pitch, snap.roll)[:2]
         chord = self.chord.add(m.lever, t, antenna, snap.raw_heading, snap.pitch, snap.roll, white)
@@ -245,7 +261,7 @@ class AgnavEstimator:
             course, var, xy, mean_speed = chord
             self._set_course(course, var)
             self.heading_known = True
-            if not doppler:  # the fixes' mean speed along the chord
+            if not doppler and ekf.P[IV, IV] > s.ekf.init_speed_sigma ** 2:  # the fixes' mean speed along the chord
                 ekf.x[IV], ekf.P[IV, IV] = mean_speed, max(ekf.P[IV, IV], s.ekf.init_speed_sigma ** 2)
             R = (white + tilt_variance(m.lever, 0.0, 0.0, ekf.P[IPHI, IPHI])) * np.eye(2)
         elif doppler and speed >= s.heading_init_speed:  # provisional: the course over ground

@@ -237,10 +237,11 @@ class NavEKF:
         y, S, _ = kalman.innovation(self.x, self.P, np.array([rate]), H, R)
         return y, S, H, R
 
-    def speed_innovation(self, speed, var):
-        """(y, S, d2, H, R) of a ground-speed measurement (m/s) with variance var: no heading needed."""
+    def speed_innovation(self, speed, var, lag=0.0):
+        """(y, S, d2, H, R) of a ground-speed measurement (m/s) with variance var, of the speed `lag` s before the
+        state's time (V - A lag): no heading needed."""
         H = np.zeros((1, N))
-        H[0, IV] = 1.0
+        H[0, IV], H[0, IA] = 1.0, -lag
         R = np.array([[var]])
         y, S, d2 = kalman.innovation(self.x, self.P, np.array([speed]), H, R)
         return y, S, d2, H, R

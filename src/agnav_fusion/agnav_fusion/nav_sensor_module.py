@@ -92,7 +92,7 @@ class NavSensorModule:
         self.guard.count("gnss")
         self._fixes_due.arrived(t, self.history[-1].t if self.history else None)
         antenna_enu = np.asarray(antenna_enu, float)
-        differenced = vel_enu is not None and self._differenced(t, antenna_enu, np.asarray(vel_enu, float))
+        differenced = 0.0 if vel_enu is None else self._differenced(t, antenna_enu, np.asarray(vel_enu, float))
         self._antenna_fixes.append((t, antenna_enu))
         while self._antenna_fixes[0][0] < t - DIFFERENCE_S:
             self._antenna_fixes.popleft()
@@ -106,14 +106,15 @@ class NavSensorModule:
         return True
 
     def _differenced(self, t, antenna, vel):
-        """True when vel is the difference of this fix and an earlier one over their time (no /gnss/vel: the
-        front end's fix-difference velocity), not a receiver (Doppler) velocity."""
+        """The baseline (s) when vel is the difference of this fix and an earlier one over their time (no /gnss/vel:
+        the front end's fix-difference velocity), 0.0 for a receiver (Doppler) velocity."""
         if not self._antenna_fixes:
-            return False
+            return 0.0
         t0, p0 = (np.array(v) for v in zip(*self._antenna_fixes))
         dt = (t - t0)[:, None]
         diff = np.divide(antenna - p0, dt, out=np.full(p0.shape, np.inf), where=dt > 0)
-        return bool(np.any(np.all(np.abs(diff - vel) <= 1e-9 + 1e-9 * np.abs(vel), axis=1)))
+        match = np.all(np.abs(diff - vel) <= 1e-9 + 1e-9 * np.abs(vel), axis=1)
+        return float(dt[match][-1, 0]) if match.any() else 0.0
 
     def wheel_speed(self, t, speed, var=None):
         """Forward ground speed (m/s, negative reversing) of base_link from wheel odometry or a radar, with its
@@ -184,7 +185,7 @@ class NavSensorModule:
             self._process_fix(*fix)
 
     # ---- GNSS fix at its epoch ----------------------------------------------------------------------------
-    def _process_fix(self, t, antenna, cov, vel, vel_var, differenced=False):
+    def _process_fix(self, t, antenna, cov, vel, vel_var, differenced=0.0):
         hist = self.history
         if hist[0].t > t:  # the history moved past the epoch while the fix waited (an IMU gap)
             self.guard.count("gnss_too_old")
@@ -202,7 +203,7 @@ class NavSensorModule:
         fwd = np.array([math.sin(snap.heading), math.cos(snap.heading)])
         xy = corrected[:2] - (t - snap.t) * (speed or 0.0) * fwd   # align to the snapshot epoch
         self._smooth = self._continues_track(t, antenna[:2], cov)
-        if self.estimator.fix(k, t, xy, R, v_ref, vel, vel_var, speed, *((differenced,) if differenced else ())):
+        if self.estimator.fix(k, t, xy, R, v_ref, vel, vel_var, speed, differenced):
             self._last_accepted_t = t
             self.last_fix = (t, corrected, cov)
 

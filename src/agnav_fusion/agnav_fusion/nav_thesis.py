@@ -36,9 +36,9 @@ class ThesisEstimator:
     def white_fix_covariance(self, cov2):
         return cov2
 
-    def fix(self, k, t, xy, R, v_ref, vel, vel_var, speed):
+    def fix(self, k, t, xy, R, v_ref, vel, vel_var, speed, differenced=0.0):
         """Gate (once the heading is known), Kise/drift LSM epoch, dead reckoning restarted at the fix and replayed
-        to now; True when the position was accepted."""
+        to now; True when the position was accepted (`differenced`, a fix-difference velocity's baseline: unused)."""
         m = self.m
         hist = m.history
         snap = hist[k]

@@ -84,11 +84,13 @@ def replay(config, bag, pipeline=None, observe=None):
     remap, topics = config.bag_remap, inputs(pipeline)
     with AnyReader([bag], default_typestore=typestore()) as reader:
         topic_of = {c.id: remap.get(c.topic, c.topic) for c in reader.connections}
-        wanted = [c for c in reader.connections if topic_of[c.id] in topics or topic_of[c.id] == "/tf_static"]
-        tf_static = [reader.deserialize(raw, c.msgtype) for c, _, raw in
-                     reader.messages(connections=[c for c in wanted if topic_of[c.id] == "/tf_static"])]
+        statics = [c for c in reader.connections if topic_of[c.id] == "/tf_static"]
+        streams = [c for c in reader.connections if topic_of[c.id] in topics]
+        # (rosbags reads every connection for an empty list)
+        tf_static = [reader.deserialize(raw, c.msgtype) for c, _, raw in reader.messages(connections=statics)
+                     ] if statics else []
         set_mounts(pipeline, config, tf_static)
         rows = ((topic_of[c.id], reader.deserialize(raw, c.msgtype))
-                for c, _, raw in reader.messages(connections=[c for c in wanted if topic_of[c.id] in topics]))
+                for c, _, raw in (reader.messages(connections=streams) if streams else ()))
         states = run_rows(pipeline, config, rows, observe)
     return [s for s in states if s is not None and pipeline.ready(s)], pipeline
