@@ -1,7 +1,7 @@
 """GNSS/INS backend of the navigation pipeline (SPEC §7, loosely coupled; estimator `ins`). ROS-free.
 
-The wander-azimuth strapdown INS with the 16-state error EKF (`agnav_fusion.ins.InsEkf`) runs on the base_link axes
-at the imu_link origin. The front end (agnav_fusion.pipeline) hands it what it hands NavSensorModule: mounts, map-ENU
+The wander-azimuth strapdown INS with the 16-state error EKF (+ crab and z gyro scale; `agnav_fusion.ins.InsEkf`)
+runs on the base_link axes at the imu_link origin. The front end (agnav_fusion.pipeline) hands it what it hands NavSensorModule: mounts, map-ENU
 fixes paired with their /gnss/vel, base_link gyro rates; as a `strapdown` backend also the specific force, the IMU
 translation, the map plane and the velocity's 3x3 covariance. The filter starts once the mounts are known; the
 heading may be unknown (in-motion alignment). Late fixes are applied against the INS history; IMU gaps are bridged
