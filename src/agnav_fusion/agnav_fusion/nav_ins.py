@@ -1,14 +1,14 @@
 """GNSS/INS backend of the navigation pipeline (SPEC §7, loosely coupled; estimator `ins`). ROS-free.
 
 The wander-azimuth strapdown INS with the 16-state error EKF (+ crab and z gyro scale; `agnav_fusion.ins.InsEkf`)
-runs on the base_link axes at the imu_link origin. The front end (agnav_fusion.pipeline) hands it what it hands NavSensorModule: mounts, map-ENU
-fixes paired with their /gnss/vel, base_link gyro rates; as a `strapdown` backend also the specific force, the IMU
-translation, the map plane and the velocity's 3x3 covariance. The filter starts once the mounts are known; the
-heading may be unknown (in-motion alignment). Late fixes are applied against the INS history; IMU gaps are bridged
-with covariance growth. Input rules are the front end's InputGuard (INS clocks: GNSS stamps within [IMU time -
-history, IMU time + max_gnss_lead]); EKF rejections become guard events (`filter_*`). The output is the NavState
-every navigation backend gives (REP-103, base_link), published from initialisation on; `dead_reckoning` is the
-INS-only (outage) mode.
+runs on the base_link axes at the imu_link origin. The front end (agnav_fusion.pipeline) hands it what it hands
+NavSensorModule: mounts, map-ENU fixes paired with their /gnss/vel, base_link gyro rates; as a `strapdown` backend
+also the specific force, the IMU translation, the map plane and the velocity's 3x3 covariance. The filter starts
+once the mounts are known; the heading may be unknown (in-motion alignment). Late fixes are applied against the INS
+history; IMU gaps are bridged with covariance growth. Input rules are the front end's InputGuard (INS clocks: GNSS
+stamps within [IMU time - history, IMU time + max_gnss_lead]); EKF rejections become guard events (`filter_*`). The
+output is the NavState every navigation backend gives (REP-103, base_link), published once the yaw sigma has been
+below heading_valid_sigma; `dead_reckoning` is the INS-only (outage) mode.
 """
 import math
 from collections import Counter
