@@ -152,18 +152,20 @@ def score(out, source, fix_topic, half, bag_duration):
 
 
 def score_outages(out, source, fix_topic, windows):
-    """Per outage window: the output's position against the removed fixes and its reported σ."""
+    """Per outage window: the output's position against the removed fixes and its reported σ, up to its last output
+    (the node stops publishing once its heading σ passes heading_valid_sigma: `published_s` of the window)."""
     est, sigma, _, tf, e, n = outputs_and_fixes(out, source, fix_topic)
     rel = tf - tf[0]
     rows = []
     for a, b in windows:
-        inside, after = (rel >= a) & (rel <= b), (rel > b) & (rel <= b + AFTER_OUTAGE)
+        inside, after = (rel >= a) & (rel <= b) & (tf <= est["t"][-1]), (rel > b) & (rel <= b + AFTER_OUTAGE)
         err = position_error(est, tf, e, n, inside)
         t_in = est["t"][(est["t"] >= tf[0] + a) & (est["t"] <= tf[0] + b)]
         rows.append({"window_s": [a, b], "travelled_m": float(np.sum(np.hypot(np.diff(e[inside]), np.diff(n[inside])))),
                      "end_m": float(err[-1]), "max_m": float(err.max()),
                      "after_rms_m": _rms(position_error(est, tf, e, n, after)),
                      "sigma_end_m": float(np.interp(tf[inside][-1], est["t"], sigma)),
+                     "published_s": float(tf[inside][-1] - tf[0] - a),
                      "max_output_gap_s": float(np.diff(t_in).max()) if t_in.size > 1 else None})
     return rows
 
@@ -262,11 +264,11 @@ def markdown(results):
         if "dead_reckoning" in results:
             r = results["dead_reckoning"]
             e = r["end_from_first_pose_m"]
-            lines[-1] += (f" Compared like for like, the module dead-reckoning on wheel odometry + gyro with every "
-                          f"fix after {DEAD_RECKONING_FROM:.0f} s removed ({r['travelled_m']:.0f} m travelled) ends "
-                          f"({e[0]:.1f}, {e[1]:.1f}) m from its first pose ({math.hypot(*e):.1f} m; robot_localization "
-                          f"{math.hypot(*RL_FINAL):.1f} m), {r['end_m']:.1f} m from the last fix (worst "
-                          f"{r['max_m']:.1f} m), with σ_xy {r['sigma_end_m']:.1f} m at the end.")
+            lines[-1] += (f" With every fix after {DEAD_RECKONING_FROM:.0f} s removed, the module dead-reckons on "
+                          f"wheel odometry + gyro for {r['published_s']:.0f} s ({r['travelled_m']:.0f} m) and then stops "
+                          f"publishing (its heading σ passes heading_valid_sigma); its last output is {r['end_m']:.1f} m "
+                          f"from the removed fix of that moment (worst {r['max_m']:.1f} m) with σ_xy "
+                          f"{r['sigma_end_m']:.1f} m, ({e[0]:.1f}, {e[1]:.1f}) m from its first pose.")
     lines += ["", "Data notes: test1's IMU mount is upstream's `static_transform_publisher 0 -0.3 0.52 -1.5708 0 1.5708` "
               "(x y z yaw pitch roll), i.e. rpy (π/2, 0, −π/2) — its +y axis points up and reads +9.8 m/s² at rest; "
               "nuance's GPS stamps run 4.8 s behind its IMU clock (fixed in the bag by csv_import --gps-time-offset; "
