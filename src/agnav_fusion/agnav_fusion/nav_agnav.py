@@ -204,7 +204,8 @@ class AgnavEstimator:
             verdict = self.m.gate(t, d2)
             if verdict is False and not doppler:  # a refused fix's own difference velocity is no better
                 ekf.x, ekf.P = hist[-1].nav[0].copy(), hist[-1].nav[1].copy()
-                ekf.log = None if ekf.log is None else ekf.log + replayed
+                if replayed:  # (only with a log)
+                    ekf.log += replayed
                 return False
             if verdict is None:  # fixes refused for long: position and heading diverged; restart both
                 ekf.reset_position(xy, R)
