@@ -1,14 +1,14 @@
 """GNSS/INS backend of the navigation pipeline (SPEC §7, loosely coupled; estimator `ins`). ROS-free.
 
-The wander-azimuth strapdown INS with the 16-state error EKF (+ crab and z gyro scale; `agnav_fusion.ins.InsEkf`)
-runs on the base_link axes at the imu_link origin. The front end (agnav_fusion.pipeline) hands it what it hands
-NavSensorModule: mounts, map-ENU fixes paired with their /gnss/vel, base_link gyro rates; as a `strapdown` backend
-also the specific force, the IMU translation, the map plane and the velocity's 3x3 covariance. The filter starts
-once the mounts are known; the heading may be unknown (in-motion alignment). Late fixes are applied against the INS
-history; IMU gaps are bridged with covariance growth. Input rules are the front end's InputGuard (INS clocks: GNSS
-stamps within [IMU time - history, IMU time + max_gnss_lead]); EKF rejections become guard events (`filter_*`). The
-output is the NavState every navigation backend gives (REP-103, base_link), published once the yaw sigma has been
-below heading_valid_sigma; `dead_reckoning` is the INS-only (outage) mode.
+The wander-azimuth strapdown INS with the 16-state error EKF (+ crab, z gyro scale and wheel speed scale;
+`agnav_fusion.ins.InsEkf`) runs on the base_link axes at the imu_link origin. The front end (agnav_fusion.pipeline)
+hands it what it hands NavSensorModule: mounts, map-ENU fixes paired with their /gnss/vel, base_link gyro rates, wheel
+speeds; as a `strapdown` backend also the specific force, the IMU translation, the map plane and the velocity's 3x3
+covariance. The filter starts once the mounts are known; the heading may be unknown (in-motion alignment). Late fixes
+are applied against the INS history; IMU gaps are bridged with covariance growth. Input rules are the front end's
+InputGuard (INS clocks: GNSS stamps within [IMU time - history, IMU time + max_gnss_lead]); EKF rejections become
+guard events (`filter_*`). The output is the NavState every navigation backend gives (REP-103, base_link), published
+once the yaw sigma has been below heading_valid_sigma; `dead_reckoning` is the INS-only (outage) mode.
 """
 import math
 from collections import Counter
@@ -156,8 +156,13 @@ class InsNavigation:
         return False
 
     def wheel_speed(self, t, speed, var=None):
-        """Not used (yet) by the INS."""
-        return False
+        """Forward ground speed (m/s, negative reversing) of base_link from wheel odometry or a radar with its
+        variance (None: ekf.wheel.speed_sigma) at its epoch: fused with the learnt scale at the next IMU sample."""
+        if not self.guard.accept("wheel", t, speed, 0.0 if var is None else var) or self.ekf is None:
+            return False
+        self.guard.count("wheel")
+        self.ekf.add_wheel(t, speed, var)
+        return True
 
     def state(self):
         return self._state

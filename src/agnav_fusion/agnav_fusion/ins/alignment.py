@@ -85,4 +85,5 @@ def initial_variances(s, g, heading_var, crab=True, gyro_bias_var=None):
         var[em.GAMMA], var[em.BETA] = 1.0, 2.0
     else:
         var[em.GAMMA], var[em.BETA] = heading_var, heading_var ** 2 / 2
-    return np.append(var, (s.nhc.crab_var(0.0) if crab else 0.0, s.error.gyro_scale_sigma ** 2))
+    return np.append(var, (s.nhc.crab_var(0.0) if crab else 0.0, s.error.gyro_scale_sigma ** 2,
+                           s.wheel.scale_sigma ** 2))

@@ -6,6 +6,8 @@ white part (sway, bumps). The crab angle is an augmented Gauss-Markov error stat
 on a cross slope slides downhill, never uphill, by about crab_roll_mean x sin(roll) (tyre side force m g sin(roll)
 over the cornering stiffness); its steady sigma grows with the roll (the slide's spread: soil, tyres, load). On a
 straight line crab and heading are not separable from GNSS: without the mean the course offset goes into the heading.
+A wheel or radar speed reads base_link's body forward velocity times (1 + w), w its scale error (rolling radius,
+mean slip: an augmented random-walk state learnt while the fixes arrive, which then holds the speed in an outage).
 Same closed-loop conventions as `measurements`: x = computed - true, z = h(x̂) - measured, so the INS velocity and
 attitude rows follow from how `feedback.apply` corrects the state.
 """
@@ -20,6 +22,7 @@ from .measurements import Linearized
 from .mechanization import T, skew
 
 CRAB = em.CRAB              # index of the augmented crab state (rad, + body velocity to the right, FRD)
+WHEEL = em.WHEEL_SCALE      # index of the wheel speed's scale error
 
 
 @dataclass
@@ -48,6 +51,58 @@ class NhcSettings:
         return self.crab_sigma ** 2 + (self.crab_roll_gain * roll) ** 2
 
 
+@dataclass
+class WheelSettings:
+    """Wheel or radar ground speed (/wheel/odometry twist.linear.x): base_link forward speed x (1 + scale)."""
+
+    speed_sigma: float = 0.05                # m/s, noise floor (the message's own covariance when larger)
+    slip_sigma: float = 0.03                 # of the speed: slip changes about the learnt scale
+    scale_sigma: float = 0.1                 # initial scale error (rolling radius, mean slip on soil)
+    scale_walk: float = 0.006                # 1/sqrt(s), change of that scale (slip: a few % within tens of s)
+    max_age: float = 0.2                     # s, a speed older than this at the next IMU sample is dropped
+
+    def variance(self, speed, var):
+        """Variance of a speed reading whose own variance is var (<= 0 or NaN: unknown)."""
+        return max(var if var and var > 0 else 0.0, self.speed_sigma ** 2) + (self.slip_sigma * speed) ** 2
+
+
+def _base_rows(c_b_cbar, v_c, omega_b, lever):
+    """base_link body velocity (FRD) and its rows d v_b / d x over _BASE_COLS (written out on floats; the matrix
+    form is in test/ins/test_scalar_paths.py): C -> B for the velocity, the tilt correction rotating C-bar by
+    (TX, -TY, 0), ω = gyro - bias."""
+    c = c_b_cbar.tolist() if isinstance(c_b_cbar, np.ndarray) else c_b_cbar
+    (c0, c1, c2), (c3, c4, c5), (c6, c7, c8) = c
+    u0, u1, u2 = v_c.tolist() if isinstance(v_c, np.ndarray) else v_c
+    u1, u2 = -u1, -u2                                                            # T v
+    w0, w1, w2 = omega_b.tolist() if isinstance(omega_b, np.ndarray) else omega_b
+    l0, l1, l2 = lever
+    vb = (c0 * u0 + c3 * u1 + c6 * u2 + (w1 * l2 - w2 * l1), c1 * u0 + c4 * u1 + c7 * u2 + (w2 * l0 - w0 * l2),
+          c2 * u0 + c5 * u1 + c8 * u2 + (w0 * l1 - w1 * l0))
+    # row i over (VX, VY, VZ, TX, TY, BG x3): (c_0i, -c_1i, -c_2i, -(c_1i u2 - c_2i u1), c_2i u0 - c_0i u2, -[l x]_i)
+    rows = ((c0, -c3, -c6, -(c3 * u2 - c6 * u1), c6 * u0 - c0 * u2, 0.0, l2, -l1),
+            (c1, -c4, -c7, -(c4 * u2 - c7 * u1), c7 * u0 - c1 * u2, -l2, 0.0, l0),
+            (c2, -c5, -c8, -(c5 * u2 - c8 * u1), c8 * u0 - c2 * u2, l1, -l0, 0.0))
+    return vb, rows
+
+
+class WheelSpeed:
+    """Row: (1 + scale) x base_link forward velocity minus the measured speed."""
+
+    name = "wheel"
+
+    def __init__(self, settings, lever_base_frd):
+        self.s = settings
+        self.lever = tuple(float(v) for v in lever_base_frd)   # IMU -> base_link, body FRD [m]
+
+    def linearize(self, c_b_cbar, v_c, omega_b, scale, speed, var, n_states):
+        (vb0, _, _), (j0, _, _) = _base_rows(c_b_cbar, v_c, omega_b, self.lever)
+        h = np.zeros((1, n_states))
+        h[0, _BASE_COLS] = [(1.0 + scale) * a for a in j0]
+        h[0, WHEEL] = vb0
+        return Linearized(self.name, np.array([(1.0 + scale) * vb0 - speed]), h,
+                          np.array([[self.s.variance(speed, var)]]))
+
+
 class NonHolonomic:
     """Rows: base_link lateral velocity minus speed x crab, base_link vertical velocity (both ~ 0)."""
 
@@ -62,24 +117,9 @@ class NonHolonomic:
         return c_b_cbar.T @ (T @ v_c) + cross(omega_b, self.lever)
 
     def linearize(self, c_b_cbar, v_c, omega_b, crab, n_states):
-        """Rows of d v_b / d x (written out on floats; the matrix form is in test/ins/test_scalar_paths.py):
-        C -> B for the velocity, the tilt correction rotating C-bar by (TX, -TY, 0), ω = gyro - bias."""
-        c = c_b_cbar.tolist() if isinstance(c_b_cbar, np.ndarray) else c_b_cbar
-        (c0, c1, c2), (c3, c4, c5), (c6, c7, c8) = c
-        u0, u1, u2 = v_c.tolist() if isinstance(v_c, np.ndarray) else v_c
-        u1, u2 = -u1, -u2                                                        # T v
-        w0, w1, w2 = omega_b.tolist() if isinstance(omega_b, np.ndarray) else omega_b
-        l0, l1, l2 = self.lever.tolist()
-        vb0 = c0 * u0 + c3 * u1 + c6 * u2 + (w1 * l2 - w2 * l1)
-        vb1 = c1 * u0 + c4 * u1 + c7 * u2 + (w2 * l0 - w0 * l2)
-        vb2 = c2 * u0 + c5 * u1 + c8 * u2 + (w0 * l1 - w1 * l0)
-        # row i of j over (VX, VY, VZ, TX, TY, BG x3): (c_0i, -c_1i, -c_2i, -(c_1i u2 - c_2i u1), c_2i u0 - c_0i u2,
-        # -[l x]_i)
-        j0 = (c0, -c3, -c6, -(c3 * u2 - c6 * u1), c6 * u0 - c0 * u2, 0.0, l2, -l1)
-        j1 = (c1, -c4, -c7, -(c4 * u2 - c7 * u1), c7 * u0 - c1 * u2, -l2, 0.0, l0)
-        j2 = (c2, -c5, -c8, -(c5 * u2 - c8 * u1), c8 * u0 - c2 * u2, l1, -l0, 0.0)
+        (vb0, vb1, vb2), (j0, j1, j2) = _base_rows(c_b_cbar, v_c, omega_b, self.lever.tolist())
         h = np.zeros(2 * n_states)
-        cols = _NHC_COLS
+        cols = _BASE_COLS
         h[cols] = [a - crab * b for a, b in zip(j1, j0)]
         h[n_states + cols] = j2
         h[CRAB] = -vb0
@@ -88,4 +128,4 @@ class NonHolonomic:
         return Linearized(self.name, np.array([vb1 - vb0 * crab, vb2]), h.reshape(2, n_states), r)
 
 
-_NHC_COLS = np.array([em.VX, em.VY, em.VZ, em.TX, em.TY, em.BG.start, em.BG.start + 1, em.BG.start + 2])
+_BASE_COLS = np.array([em.VX, em.VY, em.VZ, em.TX, em.TY, em.BG.start, em.BG.start + 1, em.BG.start + 2])

@@ -1,13 +1,14 @@
 """GNSS/INS loosely coupled extended Kalman filter (SPEC §7.6, §7.9–7.11, report 5-9-1 … 5-9-8).
 
-`InsEkf` owns the mechanization, the error covariance and the guards: IMU-rate propagation
-(Euler F, Q = U dt), IMU gaps bridged in sub-steps with unknown-motion noise, in-motion alignment from an unknown heading (γ/β), GNSS latency compensation
-(solution history, fixes applied against the INS state at their epoch), chi-square innovation
-gating, Joseph-form update with closed-loop correction, outage coasting and health statistics.
+`InsEkf` owns the mechanization, the error covariance and the guards: IMU-rate propagation (Euler F, Q = U dt), IMU
+gaps bridged in sub-steps with unknown-motion noise, in-motion alignment from an unknown heading (γ/β), GNSS latency
+compensation (solution history, fixes applied against the INS state at their epoch), chi-square innovation gating,
+Joseph-form update with closed-loop correction, outage coasting and health statistics.
 [IMPL] A non-holonomic constraint with an augmented crab state (`constraints`) makes the heading observable on
 straight runs and bounds outage drift; an augmented z gyro scale-factor state, learnt in turns, keeps a U-turn from
-leaving its heading error (0.5 % of 180° is 0.9°); fix-difference velocities only seed the in-motion alignment (they
-lag and repeat the fixes); a filter whose fixes stay rejected re-aligns from them.
+leaving its heading error (0.5 % of 180° is 0.9°); a wheel speed with an augmented scale state holds the speed in
+outages; fix-difference velocities only seed the in-motion alignment (they lag and repeat the fixes); a filter whose
+fixes stay rejected re-aligns from them.
 """
 import copy
 import math
@@ -18,14 +19,14 @@ import numpy as np
 from agnav_fusion import kalman
 
 from . import chi2, earth, error_model as em, feedback
-from .constraints import CRAB, NonHolonomic
-from .history import SolutionHistory
+from .constraints import CRAB, WHEEL, NonHolonomic, WheelSpeed
+from .history import ImuPeriod, SolutionHistory
 from .alignment import FixTrack, initial_state, initial_variances
 from .measurements import GnssPosition, GnssVelocity
 from .mechanization import Mechanization, _floats
 from .standstill import StandstillBias
 from .settings import InsEkfSettings, NavSolution  # noqa: F401 (re-exported)
-from .solution import nav_solution
+from .solution import filter_health, nav_solution
 
 UNINITIALIZED, ALIGNING, ALIGNED = "uninitialized", "aligning", "aligned"
 MAX_GAP_STEPS = 1000        # sub-steps bridging one IMU gap at most
@@ -40,8 +41,11 @@ class InsEkf:
         self.mech = None
         self.p = None
         e = self.s.error        # crab noise: roll-dependent (propagate_covariance); scale: a slow random walk
-        self.psd = np.append(e.psd(), (0.0, 2.0 * e.gyro_scale_sigma ** 2 / e.gyro_scale_tau))
+        self.psd = np.append(e.psd(), (0.0, 2.0 * e.gyro_scale_sigma ** 2 / e.gyro_scale_tau,
+                                       self.s.wheel.scale_walk ** 2))
         self.nhc = NonHolonomic(self.s.nhc, self.s.lever_base_frd) if self.s.nhc.enabled else None
+        self.wheel = WheelSpeed(self.s.wheel, self.s.lever_base_frd)
+        self.wheel_scale, self._wheel = 0.0, None   # a wheel reads (1 + scale) x speed; (t, speed, var) to fuse
         self.crab = 0.0
         self._crab_mean = 0.0             # the roll-driven mean the crab state deviates from (propagate_covariance)
         self._nhc_t = -math.inf
@@ -49,7 +53,7 @@ class InsEkf:
         self.t = None
         self.omega_b = np.zeros(3)
         self.last_gap = 0.0               # s of missing IMU samples bridged by the last add_imu
-        self._dt = None                   # nominal IMU period (running mean of regular intervals)
+        self._period = ImuPeriod()        # nominal IMU period
         self._last_imu = None             # (gyro, accel) of the last accepted sample
         self._gap_var = None              # unknown-motion variance of a gap, added at the next P propagation
         self._cov_dt = 0.0
@@ -82,7 +86,7 @@ class InsEkf:
     @property
     def imu_period(self):
         """Nominal IMU period [s] (running mean of the regular intervals; 1 before two samples)."""
-        return self._dt or 1.0
+        return self._period.dt or 1.0
 
     def gnss_age(self):
         """s of IMU time since the last accepted GNSS epoch (inf before any)."""
@@ -109,7 +113,7 @@ class InsEkf:
         self._level.append((t, accel, gyro))
         while self._level[0][0] < t - self.s.level_window:
             self._level.popleft()
-        nominal = self._nominal_dt(dt)
+        nominal = self._period.update(dt)
         if self.mech is None:
             self._standstill.add_imu(t, gyro, accel)
             self.t, self._last_imu = t, (gyro, accel)
@@ -167,16 +171,11 @@ class InsEkf:
             return None
         return nav_solution(self)
 
-    def health(self):
-        """Filter health for diagnostics: alignment, NIS means, counts, GNSS age, 1-sigma errors."""
-        out = {"alignment": self.alignment, "imu_samples": self.stats["imu"], "gnss_epochs": self.stats["gnss"]}
-        for name, (n, total) in self.stats["nis"].items():
-            out[f"nis_mean_{name}"] = total / n
-        out.update({f"{k}_{name}": c for k in ("accepted", "rejected", "bridged") for name, c in self.stats[k].items()})
-        if self.p is not None:
-            out["heading_sigma_deg"] = math.degrees(self.heading_sigma())
-            out["gnss_age_s"] = self.gnss_age()
-        return out
+    def add_wheel(self, t, speed, var):
+        """A wheel or radar speed (m/s, variance; <= 0: unknown) at t: fused at the next IMU sample."""
+        self._wheel = (t, float(speed), var) if self.mech is not None and math.isfinite(speed) else None
+
+    health = filter_health      # diagnostics: alignment, NIS means, counts, GNSS age, 1-sigma errors
 
     # ------------------------------------------------- extension API (augmented filters, hand-over)
     # An augmented filter (gnss_raw.tight) owns a P whose first n_states rows are these error states (em.N_INS).
@@ -215,6 +214,7 @@ class InsEkf:
         azimuth reset (rows beyond n_states: extra states, untouched by the feedback)."""
         feedback.apply(self.mech, x[:em.N_STATES])
         self.mech.gyro_scale += float(x[em.GYRO_SCALE])
+        self.wheel_scale -= float(x[WHEEL])
         if self.nhc is not None:
             self.crab -= x[CRAB]
         p = feedback.azimuth_reset(p, x[em.GAMMA], x[em.BETA])
@@ -251,6 +251,8 @@ class InsEkf:
             self.p[CRAB, CRAB] = self.s.nhc.crab_var(mech.state.euler()[0])
         if k <= em.GYRO_SCALE:
             self.p[em.GYRO_SCALE, em.GYRO_SCALE] = self.s.error.gyro_scale_sigma ** 2
+        if k <= WHEEL:
+            self.p[WHEEL, WHEEL] = self.s.wheel.scale_sigma ** 2
         self._crab_mean = self.s.nhc.crab_mean(mech.state.euler()[0], self.heading_sigma()) if self.nhc else 0.0
         self.omega_b = np.zeros(3) if omega_b is None else np.array(omega_b, dtype=float)
         self._f, self._cov_dt, self._gap_var, self._pending, self._corr = None, 0.0, None, [], np.zeros(6)
@@ -271,15 +273,6 @@ class InsEkf:
     def _reject(self, reason):
         self._stat("rejected", reason)
         return reason
-
-    def _nominal_dt(self, dt):
-        """Nominal IMU period: running mean of the regular intervals (gaps excluded)."""
-        if dt is not None:
-            if self._dt is None:
-                self._dt = dt
-            elif dt <= 1.5 * self._dt:
-                self._dt += 0.05 * (dt - self._dt)
-        return self._dt
 
     def _initialize(self, g, heading, heading_var):
         """Initial state at fix g (alignment.initial_state); False: not yet (standing with an unknown heading)."""
@@ -304,9 +297,10 @@ class InsEkf:
         if self.stats["imu"] % 1000 == 0:
             self.mech.renormalize()
         self._snapshot()
-        if self.nhc is not None and self.t - self._nhc_t >= self.s.nhc.interval:
-            self._nhc_t = self.t
-            self._nhc_update()
+        nhc = self.nhc is not None and self.t - self._nhc_t >= self.s.nhc.interval
+        if nhc or self._wheel is not None:
+            self._nhc_t = self.t if nhc else self._nhc_t
+            self._vehicle_update(nhc)
 
     def _mechanize(self, gyro, accel, dt):
         self._f = self.mech.step(gyro, accel, dt)
@@ -340,12 +334,18 @@ class InsEkf:
                 self._update(g)
         self._pending = keep
 
-    def _nhc_update(self):
+    def _vehicle_update(self, nhc):
+        """The non-holonomic constraint (nhc: it is due) and a wheel speed received since the last sample."""
         self._propagate_covariance()
-        st = self.mech.state
-        lin = self.nhc.linearize(st.dcm_rows(), st.v, self.omega_b, self.crab, self.n_states)
-        if self.gated(lin):
-            self._fuse([lin])
+        rows, v = self.mech.state.dcm_rows(), self.mech.state.v
+        lins = [self.nhc.linearize(rows, v, self.omega_b, self.crab, self.n_states)] if nhc else []
+        if self._wheel is not None and self.t - self._wheel[0] <= self.s.wheel.max_age:
+            lins.append(self.wheel.linearize(rows, v, self.omega_b, self.wheel_scale, *self._wheel[1:],
+                                             self.n_states))
+        self._wheel = None
+        accepted = [lin for lin in lins if self.gated(lin)]
+        if accepted:
+            self._fuse(accepted)
 
     def _update(self, g):
         self._propagate_covariance()

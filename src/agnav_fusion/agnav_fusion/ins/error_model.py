@@ -17,8 +17,9 @@ BA = slice(8, 11)
 BG = slice(11, 14)
 GAMMA, BETA = 14, 15
 N_STATES = 16
-CRAB, GYRO_SCALE = 16, 17  # augmented (ekf): crab (constraints), z gyro scale-factor error [-]
-N_INS = 18
+CRAB, GYRO_SCALE, WHEEL_SCALE = 16, 17, 18  # augmented (ekf): crab (constraints), z gyro scale-factor error [-],
+#                                             wheel speed scale error [-] (constraints.WheelSpeed)
+N_INS = 19
 V3 = (VX, VY, VZ)
 
 

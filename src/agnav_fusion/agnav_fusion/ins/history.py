@@ -52,3 +52,19 @@ class SolutionHistory:
         v = (1 - w) * a.v_ned + w * b.v_ned + d[3:]
         near = b if w >= 0.5 else a
         return Snapshot(t, pos[0], pos[1], pos[2], v, near.c_b_ned, near.omega_b)
+
+
+class ImuPeriod:
+    """Nominal IMU period: running mean of the regular intervals (gaps excluded); dt None before one interval."""
+
+    def __init__(self):
+        self.dt = None
+
+    def update(self, dt):
+        """Take an interval (None: no previous sample); returns the nominal period."""
+        if dt is not None:
+            if self.dt is None:
+                self.dt = dt
+            elif dt <= 1.5 * self.dt:
+                self.dt += 0.05 * (dt - self.dt)
+        return self.dt

@@ -5,7 +5,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from . import error_model as em
-from .constraints import NhcSettings
+from .constraints import NhcSettings, WheelSettings
 from .standstill import StandstillSettings
 
 
@@ -17,6 +17,7 @@ class InsEkfSettings:
     lever_gnss_frd: tuple = (0.0, 0.0, 0.0)    # IMU -> antenna in body FRD [m]
     lever_base_frd: tuple = (0.0, 0.0, 0.0)    # IMU -> base_link (non-holonomic point) in body FRD [m]
     nhc: NhcSettings = field(default_factory=NhcSettings)
+    wheel: WheelSettings = field(default_factory=WheelSettings)   # wheel or radar speed, when present
     standstill: StandstillSettings = field(default_factory=StandstillSettings)  # gyro bias before the alignment
     initial_heading: float = 0.0               # best guess, clockwise from north [rad]
     initial_heading_sigma: float = math.inf    # inf: unknown heading (γ/β span the full circle)

@@ -61,3 +61,15 @@ def nav_solution(ekf):
     t, lat, lon, h, v, roll, pitch, heading, w, c, pos, vel, att, gbv, crab, crab_var = solution_parts(ekf)
     return NavSolution(t, lat, lon, h, np.array(v), roll, pitch, heading, np.array(w), np.array(c), np.array(pos),
                        np.array(vel), np.array(att), np.array(gbv), crab, crab_var)
+
+
+def filter_health(ekf):
+    """InsEkf health for diagnostics: alignment, NIS means, counts, GNSS age, 1-sigma errors."""
+    out = {"alignment": ekf.alignment, "imu_samples": ekf.stats["imu"], "gnss_epochs": ekf.stats["gnss"]}
+    for name, (n, total) in ekf.stats["nis"].items():
+        out[f"nis_mean_{name}"] = total / n
+    out.update({f"{k}_{name}": c for k in ("accepted", "rejected", "bridged") for name, c in ekf.stats[k].items()})
+    if ekf.p is not None:
+        out["heading_sigma_deg"] = math.degrees(ekf.heading_sigma())
+        out["gnss_age_s"] = ekf.gnss_age()
+    return out

@@ -191,12 +191,13 @@ class RunErrors:
     pos_sigma: np.ndarray  # horizontal 1-sigma (sqrt of the trace) [m]
 
 
-def run_ins(ekf, traj, gyro, accel, gnss, outages=(), every=10, imu_gaps=()):
-    """Feed IMU and GNSS (in arrival order, dropping epochs inside `outages` [(t0, t1)] and IMU samples inside
-    `imu_gaps` [(t0, t1)]) to ekf; errors are sampled every `every` IMU samples."""
+def run_ins(ekf, traj, gyro, accel, gnss, outages=(), every=10, imu_gaps=(), wheel=()):
+    """Feed IMU, GNSS and wheel speeds (in arrival order, dropping epochs inside `outages` [(t0, t1)] and IMU samples
+    inside `imu_gaps` [(t0, t1)]; wheel: (t, speed, variance) rows) to ekf; errors are sampled every `every` IMU
+    samples."""
     n = len(gyro)
     rows = []
-    gi = 0
+    gi = wi = 0
     roll, pitch, heading = traj.euler()
     for k in range(n):
         t = traj.t[k + 1]
@@ -205,6 +206,9 @@ def run_ins(ekf, traj, gyro, accel, gnss, outages=(), every=10, imu_gaps=()):
             if not any(t0 <= sample.t < t1 for t0, t1 in outages):
                 ekf.add_gnss(sample)
             gi += 1
+        while wi < len(wheel) and wheel[wi][0] <= t:
+            ekf.add_wheel(*wheel[wi])
+            wi += 1
         if any(t0 <= t < t1 for t0, t1 in imu_gaps):
             continue
         ekf.add_imu(t, gyro[k], accel[k])
