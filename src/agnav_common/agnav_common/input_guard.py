@@ -75,6 +75,10 @@ def covariance(cov, floor_var=0.0):
     "floored" when a variance was raised; or (None, reason) for NaN/Inf, negative variances or an indefinite
     matrix."""
     c = np.array(cov, dtype=float)
+    if c.shape == (3, 3):  # a fix or velocity covariance, once per GNSS epoch: on floats when plainly fine
+        checked = _clearly_fine3(c.tolist(), floor_var)
+        if checked is not None:
+            return np.array(checked), None
     if not np.all(np.isfinite(c)):
         return None, "nan_covariance"
     c = (c + c.T) / 2 if c.ndim == 2 else np.diag(c)
@@ -89,6 +93,22 @@ def covariance(cov, floor_var=0.0):
     if np.linalg.eigvalsh(c)[0] < -1e-9 * max(float(np.max(np.diag(c))), 1e-12):
         return None, "indefinite_covariance"
     return c, problem
+
+
+def _clearly_fine3(c, floor_var):
+    """(c + c^T) / 2 of 3x3 rows (numpy's arithmetic) when it is finite, no variance is below floor_var and it is
+    positive definite by Sylvester's criterion with each minor above 1e-9 of its terms' magnitude (far beyond
+    rounding, so covariance()'s eigenvalue test passes too); else None (covariance() decides)."""
+    (a, b, d), (b2, e, f), (d2, f2, g) = c
+    a, e, g, b, d, f = (a + a) / 2, (e + e) / 2, (g + g) / 2, (b + b2) / 2, (d + d2) / 2, (f + f2) / 2
+    if not (math.isfinite(a + b + d + e + f + g) and min(a, e, g) >= floor_var and a > 0):
+        return None
+    m2 = a * e - b * b
+    m3 = a * (e * g - f * f) - b * (b * g - f * d) + d * (b * f - e * d)
+    size3 = a * (e * g + f * f) + abs(b) * (abs(b * g) + abs(f * d)) + abs(d) * (abs(b * f) + abs(e * d))
+    if m2 > 1e-9 * (a * e + b * b) and m3 > 1e-9 * size3:
+        return (a, b, d), (b, e, f), (d, f, g)
+    return None
 
 
 class EventWindow:

@@ -3,7 +3,7 @@ import math
 
 import numpy as np
 
-from agnav_common.input_guard import EventWindow, StreamClock, StreamClockSettings, covariance
+from agnav_common.input_guard import EventWindow, StreamClock, StreamClockSettings, covariance, _clearly_fine3
 
 
 def test_lone_future_stamp_is_rejected_and_never_moves_the_clock():
@@ -40,6 +40,36 @@ def test_covariance_rules():
     assert problem == "floored_covariance" and np.allclose(c, 1e-4 * np.eye(2))
     c, problem = covariance([[1.0, 0.2], [0.0, 1.0]])
     assert problem is None and np.allclose(c, c.T)
+
+
+def test_the_3x3_float_path_gives_the_general_paths_result():
+    """covariance() of a 3x3 that _clearly_fine3 passes equals the array path's (bit for bit), on random, nearly
+    singular, indefinite, non-finite and badly scaled matrices."""
+    rng, fast = np.random.default_rng(7), 0
+    for i in range(6000):
+        a = rng.normal(size=(3, 3)) * 10.0 ** rng.uniform(-4, 3, size=(1, 3))
+        m = [a @ a.T, a @ a.T + rng.normal(size=(3, 3)) * 10.0 ** rng.uniform(-9, -3), np.diag(rng.uniform(-1e-3, 1, 3)),
+             np.outer(a[0], a[0]) + np.diag(rng.uniform(0, 1e-9, 3)), np.diag(10.0 ** rng.uniform(-8, 8, 3))][i % 5]
+        if i % 7 == 0:
+            m[rng.integers(0, 3), rng.integers(0, 3)] = (math.nan, math.inf, 0.0)[i % 3]
+        floor = (0.0, 1e-4, 1e-2)[i % 3]
+        fast += _clearly_fine3(m.tolist(), floor) is not None
+        c, problem = covariance(m, floor)
+        c0 = np.array(m, dtype=float)  # the array path, as covariance() runs it for other shapes
+        c0 = (c0 + c0.T) / 2
+        d = np.diag(c0)
+        if not np.all(np.isfinite(c0)) or np.any(d < 0):
+            assert c is None
+            continue
+        floored = bool(np.any(d < floor))
+        if floored:
+            c0[np.diag_indices_from(c0)] = np.maximum(d, floor)
+        if np.linalg.eigvalsh(c0)[0] < -1e-9 * max(float(np.max(np.diag(c0))), 1e-12):
+            assert c is None
+            continue
+        assert problem == ("floored_covariance" if floored else None)
+        assert c.tobytes() == c0.tobytes() and c.shape == (3, 3)
+    assert fast > 1500
 
 
 def test_event_window_describes_the_present():

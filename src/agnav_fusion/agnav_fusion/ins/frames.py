@@ -19,7 +19,7 @@ from .solution import TWO_PI, congruence3
 FLU_TO_FRD = np.diag([1.0, -1.0, -1.0])
 FRD = FLU_TO_FRD.diagonal().copy()   # FLU <-> FRD sign flips: x * FRD == x @ FLU_TO_FRD (per-sample paths)
 NED_TO_ENU = ENU_TO_NED.T.copy()
-_DIAG3 = np.arange(3, 6)
+_ZEROS36 = np.zeros(36)
 
 
 @dataclass
@@ -165,9 +165,10 @@ def ekf_base_link_state(ekf, mounts, plane, rate_var=(0.0, 0.0, 0.0)):
     (p00, p01), (p10, p11) = p[:2, :2].tolist()
     b00, b01, b10, b11 = a00 * p00 + a01 * p10, a00 * p01 + a01 * p11, a10 * p00 + a11 * p10, a10 * p01 + a11 * p11
     (f00, f01, f02), (f10, f11, f12), (f20, f21, f22) = ekf.fix_drift_cov.tolist()
+    d = p.diagonal().tolist()        # Python floats: numpy scalars cost more in every operation below
     pos = ((f00 + (b00 * a00 + b01 * a01), f01 + (b00 * a10 + b01 * a11), f02),
-           (f10 + (b10 * a00 + b11 * a01), f11 + (b10 * a10 + b11 * a11), f12), (f20, f21, f22 + p[em.H, em.H]))
-    tx, ty, txy, tc = p[em.TX, em.TX], p[em.TY, em.TY], p[em.TX, em.TY], p[em.GAMMA, em.GAMMA] + mounts.yaw_var
+           (f10 + (b10 * a00 + b11 * a01), f11 + (b10 * a10 + b11 * a11), f12), (f20, f21, f22 + d[em.H]))
+    tx, ty, txy, tc = d[em.TX], d[em.TY], p.item(em.TX, em.TY), d[em.GAMMA] + mounts.yaw_var
     ta = 0.5 * (tx + ty) + math.hypot(0.5 * (tx - ty), txy) + mounts.tilt_var   # largest C-axis tilt + mount
     position, velocity, pose3 = _moved(lat, lon, h, c_ned, (ca * v0 - sa * v1, -sa * v0 - ca * v1, -v2),
                                        (w0, w1, w2), mounts, plane, pos, (ta, ta, tc))
@@ -176,7 +177,7 @@ def ekf_base_link_state(ekf, mounts, plane, rate_var=(0.0, 0.0, 0.0)):
     twist3 = _upper(congruence3(((c0, -c3, -c6), (-c1, c4, c7), (-c2, c5, c8)),
                                 ((rx[0], rx[1], rx[-1]), (ry[0], ry[1], ry[-1]), (rz[0], rz[1], rz[-1]))))
     bg = em.BG.start
-    gyro = (p[bg, bg] + rate_var[0], p[bg + 1, bg + 1] + rate_var[1], p[bg + 2, bg + 2] + rate_var[2])
+    gyro = (d[bg] + rate_var[0], d[bg + 1] + rate_var[1], d[bg + 2] + rate_var[2])
     heading = math.remainder(math.atan2(c3, c0) - alpha, TWO_PI)
     rpy = (math.atan2(c7, c8), math.asin(max(-1.0, min(1.0, c6))), wrap_angle(math.pi / 2 - heading))
     state = _state(ekf.t, position, rpy, velocity, (w0, -w1, -w2), pose3, (ta, ta, tc), twist3, gyro)
@@ -226,11 +227,13 @@ def _state(t, position, rpy, velocity, rates, pose3, att, twist3, gyro):
 
 
 def _cov6(upper, diagonal):
-    """6x6 covariance: a symmetric 3x3 block (upper triangle) and a diagonal one."""
+    """6x6 covariance: a symmetric 3x3 block (upper triangle) and a diagonal one (written into a copy of zeros:
+    cheaper than an array from 36 values)."""
     a00, a01, a02, a11, a12, a22 = upper
-    d0, d1, d2 = diagonal
-    return np.array((a00, a01, a02, 0.0, 0.0, 0.0, a01, a11, a12, 0.0, 0.0, 0.0, a02, a12, a22, 0.0, 0.0, 0.0,
-                     0.0, 0.0, 0.0, d0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, d1, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, d2)).reshape(6, 6)
+    c = _ZEROS36.copy()
+    c[0], c[1], c[2], c[6], c[7], c[8], c[12], c[13], c[14] = a00, a01, a02, a01, a11, a12, a02, a12, a22
+    c[21], c[28], c[35] = diagonal
+    return c.reshape(6, 6)
 
 
 def symmetric(cov):
