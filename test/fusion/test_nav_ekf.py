@@ -4,7 +4,7 @@ import math
 import numpy as np
 
 from agnav_fusion import kalman
-from agnav_fusion.nav_ekf import IB, IPHI, NavEKF, NavEKFSettings
+from agnav_fusion.nav_ekf import IA, IB, IPHI, IV, NavEKF, NavEKFSettings
 
 
 def straight_run(seed=3, seconds=60.0, rate=50.0, bias=0.004):
@@ -103,3 +103,20 @@ def test_receiver_error_class_rise_restarts_the_bias():
         return worst
 
     assert run(restart=True) < 3.0 < run(restart=False)
+
+
+def test_coasting_does_not_extrapolate_an_unconfirmed_acceleration():
+    """Fixes stop while the speed model holds a small acceleration (fix noise): coasting, it decays with
+    coast_accel_tau, so the speed stays near its last value; A keeps its stationary variance, and V's sigma after 30 s
+    still covers a stop from the speed held (1 m/s)."""
+    speed, variance = {}, {}
+    for coasting in (False, True):
+        ekf = NavEKF()
+        ekf.initialise([0.0, 0.0], 1e-4 * np.eye(2), 0.0, 1.0)
+        ekf.x[IA] = 0.04
+        for _ in range(3000):                      # 30 s at 100 Hz
+            ekf.predict(0.0, 0.01, coasting=coasting)
+        speed[coasting], variance[coasting] = ekf.x[IV] - 1.0, ekf.P[IV, IV]
+    s = NavEKFSettings()
+    assert speed[False] > 0.9 * 0.04 * s.accel_tau and speed[True] < 1.1 * 0.04 * s.coast_accel_tau, speed
+    assert math.sqrt(variance[True]) > 1.0, variance

@@ -70,26 +70,26 @@ class AgnavEstimator:
             along = min(max(float(force[0]) - GRAVITY * math.sin(pitch) - lever_acc[0], -s.max_accel), s.max_accel)
         self.ekf.set_accel_mode(along is not None)
         if self.ekf.x is not None:
-            self.propagate(rate_cw, dt, self.still, wheel, along, roll or 0.0)
+            self.propagate(rate_cw, dt, self.still, wheel, along, roll or 0.0, t - self.last_fix_t > s.gnss_timeout)
             heading, nav = self.ekf.x[IPHI], (self.ekf.x.copy(), self.ekf.P.copy())
         else:
             heading, nav = self.raw_heading, None
         return rate_cw, roll, pitch, heading, self.raw_heading, nav, self.still, wheel, along
 
-    def propagate(self, rate_cw, dt, still, wheel=None, along=None, roll=0.0):
+    def propagate(self, rate_cw, dt, still, wheel=None, along=None, roll=0.0, coasting=False):
         """EKF prediction with the yaw rate (and the along-track acceleration `along`, roll for the crab model);
         standing still, the gyro reading is its bias (zero-rate update); a wheel speed (speed, variance) measures V.
         An IMU gap is bridged in steps of max_dt with the yaw rate and acceleration it may have hidden added as
-        noise."""
+        noise. coasting: no fix for gnss_timeout s."""
         s, ekf = self.m.settings, self.ekf
         if dt > s.max_dt:
             n = math.ceil(dt / s.max_dt)
             for _ in range(n):
                 ekf.P[IPHI, IPHI] += (s.gap_rate_sigma * dt) ** 2 / n
                 ekf.P[IV, IV] += (s.gap_accel_sigma * dt) ** 2 / n
-                ekf.predict(rate_cw, dt / n, along, roll)
+                ekf.predict(rate_cw, dt / n, along, roll, coasting)
         else:
-            ekf.predict(rate_cw, dt, along, roll)
+            ekf.predict(rate_cw, dt, along, roll, coasting)
 
         if still:
             y, S, H, R = ekf.zero_rate_innovation(rate_cw, s.still_rate_sigma ** 2)

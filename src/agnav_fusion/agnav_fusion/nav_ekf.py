@@ -36,6 +36,8 @@ class NavEKFSettings:
     bias_walk: float = 1.0e-4      # rad/s/sqrt(s) yaw-gyro bias random walk
     jerk_noise: float = 0.05       # m/s^3/sqrt(Hz) longitudinal jerk (no accelerometer)
     accel_tau: float = 6.0         # s, longitudinal acceleration is Gauss-Markov (starts and stops last seconds)
+    coast_accel_tau: float = 2.0   # s, its correlation time once the fixes stop (coasting): an acceleration the fixes
+    #                                no longer confirm is not extrapolated through an outage
     speed_walk: float = 0.02       # m/s/sqrt(s) speed random walk (throttle, load, wheel slip changes)
     accel_noise: float = 0.1       # m/s^2/sqrt(Hz) along-track accelerometer: vibration and sway residuals
     accel_bias_walk: float = 0.005  # m/s^2/sqrt(s) accelerometer bias + gravity-compensation (pitch) error walk
@@ -71,7 +73,7 @@ class NavEKF:
         self.accel_mode = False   # A is the accelerometer bias (set_accel_mode)
         self.bias_changed = False  # the latest fix's slow-error variance is under a quarter or over 4x the one before
         self._F = np.eye(N)  # the transition matrix, refilled per step
-        self._decay_dt, self._decay_f = None, None
+        self._decay_key, self._decay_f = None, None
         self._q_key, self._q = None, None
 
     def split_fix_covariance(self, cov):
@@ -114,7 +116,7 @@ class NavEKF:
         if on == self.accel_mode:
             return
         self.accel_mode = on
-        self._decay_dt = None
+        self._decay_key = None
         if self.x is not None:
             self.x[IA] = 0.0
             self.P[IA, :] = self.P[:, IA] = 0.0
@@ -131,14 +133,16 @@ class NavEKF:
         pcc, pck, pkc, pkk = P[IC, IC], P[IC, IK], P[IK, IC], P[IK, IK]
         return float(x[IC] + k * x[IK]), float((pcc + k * pkc) + (pck + k * pkk) * k)
 
-    def _process_noise(self, dt, fb, fc):
-        """Diagonal Q of one step (cached: dt, mode and receiver-bias variance repeat)."""
-        key = (dt, self.accel_mode, self.gnss_bias_var)
+    def _process_noise(self, dt, fb, fc, coasting):
+        """Diagonal Q of one step (cached: dt, mode and receiver-bias variance repeat); coasting keeps A's stationary
+        variance (jerk_noise^2 accel_tau / 2) with the shorter correlation time."""
+        key = (dt, self.accel_mode, self.gnss_bias_var, coasting)
         if key != self._q_key:
             s = self.settings
             q_bias = self.gnss_bias_var * (1.0 - fb ** 2)   # keeps the Gauss-Markov variance stationary
             q_v = s.speed_walk ** 2 + (s.accel_noise ** 2 if self.accel_mode else 0.0)
-            q_a = s.accel_bias_walk ** 2 if self.accel_mode else s.jerk_noise ** 2
+            q_a = s.accel_bias_walk ** 2 if self.accel_mode else s.jerk_noise ** 2 * (
+                s.accel_tau / s.coast_accel_tau if coasting else 1.0)
             self._q_key = key
             self._q = np.array((s.slip_noise ** 2 * dt, s.slip_noise ** 2 * dt, s.rate_noise ** 2 * dt,
                                 s.bias_walk ** 2 * dt, q_v * dt, q_a * dt, q_bias, q_bias,
@@ -157,21 +161,23 @@ class NavEKF:
         self.P[:2, :2] = np.asarray(xy_cov) + self.gnss_bias_var * np.eye(2)
         self.P[IX, IBX] = self.P[IBX, IX] = self.P[IY, IBY] = self.P[IBY, IY] = -self.gnss_bias_var
 
-    def _decay(self, dt):
+    def _decay(self, dt, coasting):
         """(A, receiver bias, crab, terrain roll) Gauss-Markov factors over dt (cached: dt repeats)."""
-        if dt != self._decay_dt:
+        if (dt, coasting) != self._decay_key:
             s = self.settings
-            self._decay_dt = dt
-            self._decay_f = (1.0 if self.accel_mode else math.exp(-dt / s.accel_tau),
+            self._decay_key = (dt, coasting)
+            tau = s.coast_accel_tau if coasting else s.accel_tau
+            self._decay_f = (1.0 if self.accel_mode else math.exp(-dt / tau),
                              math.exp(-dt / s.gnss_bias_tau) if s.gnss_bias_tau > 0 else 0.0,
                              math.exp(-dt / s.crab_tau), math.exp(-dt / s.crab_roll_tau))
         return self._decay_f
 
-    def predict(self, rate, dt, accel=None, roll=0.0):
+    def predict(self, rate, dt, accel=None, roll=0.0, coasting=False):
         """Propagate with the clockwise yaw rate r (rad/s) over dt (s); accel: along-track acceleration (m/s^2,
-        gravity-compensated) in accelerometer mode; roll (rad, right side down) drives the crab model."""
+        gravity-compensated) in accelerometer mode; roll (rad, right side down) drives the crab model; coasting: no
+        fix for a while (the acceleration decays with coast_accel_tau)."""
         x = self.x.tolist()  # Python floats: the same IEEE arithmetic as numpy scalars, a fraction of the cost
-        fa, fb, fc, fr = self._decay(dt)
+        fa, fb, fc, fr = self._decay(dt, coasting)
         v, sin_rho = x[IV], math.sin(x[IR])
         c = x[IPHI] + (x[IC] + sin_rho * x[IK])
         sin_c, cos_c = math.sin(c), math.cos(c)
@@ -190,7 +196,7 @@ class NavEKF:
         x[IC] *= fc
         x[IR] = roll + fr * (x[IR] - roll)
         P = np.dot(np.dot(F, self.P), F.T)  # np.dot: the same dgemm as @, less overhead
-        P.ravel()[::N + 1] += self._process_noise(dt, fb, fc)
+        P.ravel()[::N + 1] += self._process_noise(dt, fb, fc, coasting)
         self.P = P
         self.x = x = np.array(x)
         if self.log is not None:
