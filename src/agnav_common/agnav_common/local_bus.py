@@ -8,9 +8,10 @@ those callbacks published in turn. With one source publishing in log-time order 
 simulation of the graph: same input, same output, bit for bit, on any machine load.
 
 Sim time: a message on /clock advances the bus time. Timers on a clock that follows /clock (use_sim_time) fire
-when due, in due-time order, each with every node clock set to its due time; then every node clock is set to the
-new time (the nodes' TimeSources are served directly rather than through their /clock subscriptions). Other
-timers (steady clock, wall time) and services are left to an executor.
+when due, in due-time order, each with every node clock at its due time; the node clocks read the bus time (the
+nodes' TimeSources are served directly rather than through their /clock subscriptions: `now()` of their clocks
+returns the bus time, and their rcl clocks, which the timers read, are set only when a timer is due or re-armed,
+not at every bag stamp). Other timers (steady clock, wall time) and services are left to an executor.
 
 Matching is by resolved topic name and message type (a subscription of another type is not connected, as in
 DDS). Messages published as objects are shared, not copied, by the subscriptions (as rclcpp's intra-process
@@ -23,6 +24,7 @@ message on DDS for a live viewer; bus subscriptions never take anything from DDS
 """
 from types import SimpleNamespace
 
+from rclpy.clock import ROSClock
 from rclpy.clock_type import ClockType
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile
@@ -98,12 +100,14 @@ class LocalBus:
         self.timers = {}          # sim-time rclpy Timer -> due time (ns), in creation order
         self.topic_listeners = []
         self.now = 0              # bus time, ns (0: not started)
+        self._synced = None       # bus time the rcl clocks of the time sources were last set to
         self.version = 0          # changes with every subscription created or removed (publishers' routes)
         self._pending = []        # (subscription, message) latched deliveries not made yet
         self._next_due = None
         self._target = 0
         self._advancing = False
         self._saved = {}
+        self._now_patch = None
 
     # -- installation ---------------------------------------------------------------------------------------------
     def install(self):
@@ -114,6 +118,7 @@ class LocalBus:
         for name in _PATCHED:
             self._saved[name] = getattr(Node, name)
             setattr(Node, name, self._patched(getattr(LocalBus, f"_node_{name}"), self._saved[name]))
+        ROSClock.now = self._now_patch = self._patched(LocalBus._clock_now, ROSClock.now)
         return self
 
     def _patched(self, local, original):
@@ -126,6 +131,8 @@ class LocalBus:
         for name, original in self._saved.items():
             setattr(Node, name, original)
         self._saved.clear()
+        if vars(ROSClock).get("now") is self._now_patch:
+            del ROSClock.now  # rclpy's ROSClock inherits Clock.now
         for table in (self.publishers, self.subs, self.timers, self.topic_listeners, self.time_sources, self._pending):
             table.clear()
         if _installed is self:
@@ -158,7 +165,8 @@ class LocalBus:
         sub = LocalSubscription(self, node, msg_type, node.resolve_topic_name(topic), callback, qos, raw)
         owner = getattr(callback, "__self__", None)
         if sub.topic_name == CLOCK_TOPIC and isinstance(owner, TimeSource):
-            self.time_sources.append(owner)  # its clocks are set by advance(), not by messages
+            self.time_sources.append(owner)  # its clocks follow the bus time, not messages
+            self._synced = None  # its rcl clocks too, at the next _sync_clocks
             return sub
         self.subs.setdefault(sub.topic_name, []).append(sub)
         self.version += 1
@@ -166,6 +174,13 @@ class LocalBus:
             if self._check_types(pub, sub) and pub.last is not None and _latched(qos):
                 self._pending.append((sub, pub.last))
         return sub
+
+    def _clock_now(self, original, clock):
+        """ROSClock.now while installed: the bus time for the clock of a sim-time node (what its rcl clock would
+        say once set), rclpy's for any other."""
+        if any(clock in source._associated_clocks for source in self.time_sources):
+            return Time(nanoseconds=self.now, clock_type=ClockType.ROS_TIME)
+        return original(clock)
 
     def _node_create_timer(self, original, node, *args, **kwargs):
         timer = original(node, *args, **kwargs)
@@ -262,12 +277,13 @@ class LocalBus:
 
     # -- sim time -------------------------------------------------------------------------------------------------
     def advance(self, t_ns):
-        """Move the bus time to t_ns: fire the sim-time timers due by then (each at its due time), then set every
-        node clock to t_ns. Called for every /clock message; a call from a timer callback moves the target on."""
+        """Move the bus time to t_ns: fire the sim-time timers due by then (each at its due time), then move on to
+        t_ns (the node clocks read the bus time). Called for every /clock message; a call from a timer callback
+        moves the target on."""
         if self._pending:
             self.flush()
         if t_ns < self.now:  # time went back (a looped replay): follow it, timers re-align
-            self._set_clocks(t_ns)
+            self.now = t_ns
             self._update_dues()
             return
         self._target = max(self._target, t_ns)
@@ -276,27 +292,32 @@ class LocalBus:
         self._advancing = True
         try:
             if self.now == 0:  # the sim clock starts: timers created at time 0 are overdue and fire now
-                self._set_clocks(self._target)
+                self.now = self._target
                 self._update_dues()
             while self._next_due is not None and self._next_due <= self._target:
-                self._set_clocks(max(self._next_due, self.now))
+                self.now = max(self._next_due, self.now)
+                self._sync_clocks()
                 for timer in [t for t, due in self.timers.items() if due is not None and due <= self.now]:
                     self._fire(timer)
                 self._update_dues()
             if self._target > self.now:
-                self._set_clocks(self._target)
+                self.now = self._target
         finally:
             self._advancing = False
 
-    def _set_clocks(self, t_ns):
-        self.now = t_ns
-        time = Time(nanoseconds=t_ns, clock_type=ClockType.ROS_TIME)
+    def _sync_clocks(self):
+        """Set the rcl clocks of the time sources to the bus time (the timers read them)."""
+        if self._synced == self.now:
+            return
+        self._synced = self.now
+        time = Time(nanoseconds=self.now, clock_type=ClockType.ROS_TIME)
         for source in self.time_sources:
             source._last_time_set = time  # what TimeSource.clock_callback does, without a message per node
             for clock in source._associated_clocks:
                 clock.handle.set_ros_time_override(time._time_handle)  # ROSClock.set_ros_time_override
 
     def _update_dues(self):
+        self._sync_clocks()
         for timer in list(self.timers):
             try:
                 active = not timer.is_canceled() and timer.clock.ros_time_is_active
