@@ -145,25 +145,19 @@ def _layout(cls):
     return items
 
 
-def _align(size, indent):
-    return [f"{indent}pos = (pos + {size - 1}) & -{size}"] if size > 1 else []
-
-
-def _pad(size, indent):  # buf holds the 4-byte encapsulation header before the payload
-    return [f"{indent}buf += ZEROS[-(len(buf) - 4) % {size}]"] if size > 1 else []
-
-
 class _Coder:
     """`_Coder(cls, "read").function`: a generated `read(mv, pos) -> (message, pos)` (pos relative to the CDR payload);
     "write": `write(msg, buf)` (appends to a bytearray that starts with the encapsulation header). Nested messages are
     inlined, and a run of scalars whose sizes do not grow is one struct call: CDR aligns every scalar to its size and
-    nothing else (no struct padding), so only the run's first scalar needs aligning."""
+    nothing else (no struct padding), so only the run's first scalar needs aligning. Where the position modulo the
+    alignment is known when generating (up to the first string or sequence) the padding is a constant."""
 
     def __init__(self, cls, kind):
         self.read = kind == "read"
         self.env = {"new": object.__new__, "unpack": struct.unpack_from, "pack": struct.pack, "numpy": numpy,
                     "array": array.array, "ZEROS": [bytes(n) for n in range(8)]}
-        self.lines, self.run, self.count = [], [], itertools.count()
+        self.lines, self.run, self.ids = [], [], itertools.count()
+        self.at = (0, 8)  # the position is known to be at[0] modulo at[1] (payload start: 0 modulo 8)
         self.lines += ["def read(mv, pos):"] + self.new("o", cls, "  ") if self.read else ["def write(o, buf):"]
         self.fields(cls, "o", "  ")
         self.flush("  ")
@@ -172,19 +166,45 @@ class _Coder:
 
     def new(self, var, cls, indent):
         """Code creating the message `var` of class cls (a reader's)."""
-        n = next(self.count)
+        n = next(self.ids)
         self.env[f"c{n}"], self.env[f"k{n}"] = cls, cls()._check_fields
         return [f"{indent}{var} = new(c{n})", f"{indent}{var}._check_fields = k{n}"]
+
+    def align(self, size, indent):
+        """Code aligning the position to `size` (buf holds the 4-byte encapsulation header before the payload)."""
+        m, a = self.at
+        if size == 1:
+            return []
+        if a >= size:  # known: a constant padding, if any
+            pad = -m % size
+            self.at = ((m + pad) % a, a)
+            return [] if not pad else [f"{indent}pos += {pad}" if self.read else f"{indent}buf += ZEROS[{pad}]"]
+        self.at = (0, size)
+        return [f"{indent}pos = (pos + {size - 1}) & -{size}" if self.read
+                else f"{indent}buf += ZEROS[-(len(buf) - 4) % {size}]"]
+
+    def advance(self, size):
+        """The position moves on by a known number of bytes (None: by an unknown one)."""
+        m, a = self.at
+        self.at = (0, 1) if size is None else ((m + size) % a, a)
 
     def flush(self, indent):
         """Code for the pending run of scalars [(field, struct code, size)]."""
         if not self.run:
             return
         fields, fmt = ", ".join(f for f, _, _ in self.run), "<" + "".join(c for _, c, _ in self.run)
-        self.lines += (_align(self.run[0][2], indent) + [f"{indent}{fields}, = unpack('{fmt}', mv, pos)",
-                                                        f"{indent}pos += {struct.calcsize(fmt)}"]
-                       if self.read else _pad(self.run[0][2], indent) + [f"{indent}buf += pack('{fmt}', {fields})"])
+        self.lines += self.align(self.run[0][2], indent) + (
+            [f"{indent}{fields}, = unpack('{fmt}', mv, pos)", f"{indent}pos += {struct.calcsize(fmt)}"] if self.read
+            else [f"{indent}buf += pack('{fmt}', {fields})"])
+        self.advance(struct.calcsize(fmt))
         self.run = []
+
+    def count(self, var, field, indent):
+        """Code for an element count: read into `var`, or written as len(field)."""
+        lines = self.align(4, indent) + ([f"{indent}{var} = unpack('<I', mv, pos)[0]", f"{indent}pos += 4"]
+                                         if self.read else [f"{indent}buf += pack('<I', len({field}))"])
+        self.advance(4)
+        return lines
 
     def fields(self, cls, obj, i):
         """Code for the fields of message `obj` (a local variable) of class cls, indented by i."""
@@ -197,37 +217,42 @@ class _Coder:
                 self.run.append((f, item[2], item[3]))
                 continue
             if kind == "message":  # its scalars may continue the run
-                sub = f"m{next(self.count)}"
+                sub = f"m{next(self.ids)}"
                 lines += self.new(sub, item[2], i) + [f"{i}{f} = {sub}"] if read else [f"{i}{sub} = {f}"]
                 self.fields(item[2], sub, i)
                 continue
             self.flush(i)
-            n = f"n{next(self.count)}"  # an element count (read) or encoded string (write)
-            count = (_align(4, i) + [f"{i}{n} = unpack('<I', mv, pos)[0]", f"{i}pos += 4"] if read
-                     else _pad(4, i) + [f"{i}buf += pack('<I', len({f}))"])
+            n = f"n{next(self.ids)}"  # an element count (read) or encoded string (write)
             if kind == "string":
-                lines += (count + [f"{i}{f} = str(mv[pos:pos + {n} - 1], 'utf-8')", f"{i}pos += {n}"] if read
-                          else _pad(4, i) + [f"{i}{n} = {f}.encode()", f"{i}buf += pack('<I', len({n}) + 1)",
-                                             f"{i}buf += {n}", f"{i}buf += ZEROS[1]"])
+                lines += (self.count(n, f, i) + [f"{i}{f} = str(mv[pos:pos + {n} - 1], 'utf-8')", f"{i}pos += {n}"]
+                          if read else self.align(4, i) + [f"{i}{n} = {f}.encode()",
+                                                           f"{i}buf += pack('<I', len({n}) + 1)", f"{i}buf += {n}",
+                                                           f"{i}buf += ZEROS[1]"])
+                self.advance(None)
             elif kind == "array":
                 dtype, size, end = item[2], item[4], item[3] * item[4]
-                lines += (_align(size, i) + [f"{i}{f} = numpy.frombuffer(mv, numpy.{dtype}, {item[3]}, pos).copy()",
-                                             f"{i}pos += {end}"] if read
-                          else _pad(size, i) + [f"{i}if len({f}) != {item[3]}:", f"{i}  raise ValueError('{item[1]}')",
-                                                f"{i}buf += numpy.asarray({f}, numpy.{dtype}).tobytes()"])
+                lines += self.align(size, i) + (
+                    [f"{i}{f} = numpy.frombuffer(mv, numpy.{dtype}, {item[3]}, pos).copy()", f"{i}pos += {end}"]
+                    if read else [f"{i}if len({f}) != {item[3]}:", f"{i}  raise ValueError('{item[1]}')",
+                                  f"{i}buf += numpy.asarray({f}, numpy.{dtype}).tobytes()"])
+                self.advance(end)
             elif kind == "sequence":
                 code, size = item[2:]
-                lines += count + ([f"{i}{f} = array('{code}')", f"{i}if {n}:"] + _align(size, i + "  ")
-                                  + [f"{i}  {f}.frombytes(mv[pos:pos + {n} * {size}])", f"{i}  pos += {n} * {size}"]
-                                  if read else [f"{i}if len({f}):"] + _pad(size, i + "  ")
-                                  + [f"{i}  buf += array('{code}', {f}).tobytes()"])
+                lines += self.count(n, f, i) + (
+                    [f"{i}{f} = array('{code}')", f"{i}if {n}:"] + self.align(size, i + "  ")
+                    + [f"{i}  {f}.frombytes(mv[pos:pos + {n} * {size}])", f"{i}  pos += {n} * {size}"]
+                    if read else [f"{i}if len({f}):"] + self.align(size, i + "  ")
+                    + [f"{i}  buf += array('{code}', {f}).tobytes()"])
+                self.advance(None)
             else:  # a sequence of messages: the element's code in a loop
-                sub = f"m{next(self.count)}"
-                lines += count + ([f"{i}{f} = {n}_items = []", f"{i}for _ in range({n}):"]
-                                  + self.new(sub, item[2], i + "  ") + [f"{i}  {n}_items.append({sub})"]
-                                  if read else [f"{i}for {sub} in {f}:"])
+                sub = f"m{next(self.ids)}"
+                lines += self.count(n, f, i) + ([f"{i}{f} = {n}_items = []", f"{i}for _ in range({n}):"]
+                                                + self.new(sub, item[2], i + "  ") + [f"{i}  {n}_items.append({sub})"]
+                                                if read else [f"{i}for {sub} in {f}:"])
+                self.advance(None)  # each pass starts where the last one ended
                 self.fields(item[2], sub, i + "  ")
                 self.flush(i + "  ")
+                self.advance(None)
 
 
 def filter_bag(src, dst, keep):
