@@ -64,8 +64,7 @@ def write_message(writer, connection, t_ns, data):
         chunk.message_end_time = t_ns
     bio = chunk.bio
     chunk.msgs[cid].append((t_ns, bio.tell()))
-    bio.write(_MESSAGE.pack(0x05, 22 + len(data), cid, 0, t_ns, t_ns))
-    bio.write(data)
+    bio.write(_MESSAGE.pack(0x05, 22 + len(data), cid, 0, t_ns, t_ns) + data)
     writer.counts[cid] += 1
     if t_ns < writer.min_timestamp:
         writer.min_timestamp = t_ns

@@ -102,10 +102,11 @@ class BagRecorderNode(Node):
         if now == 0:
             self._early.append((topic, data))
             return
-        for early_topic, early_data in self._early:
-            write_message(self.writer, self.connections[early_topic], now, early_data)
-            self.counts[early_topic] += 1
-        self._early.clear()
+        if self._early:
+            for early_topic, early_data in self._early:
+                write_message(self.writer, self.connections[early_topic], now, early_data)
+                self.counts[early_topic] += 1
+            self._early.clear()
         write_message(self.writer, self.connections[topic], now, data)
         self.counts[topic] += 1
         if topic != "/diagnostics":
