@@ -57,17 +57,19 @@ _WRITERS = {}  # rclpy class -> (msgtype, generated CDR writer or None: rclpy by
 def cdr(msg):
     """CDR bytes of an rclpy message with zeroed alignment padding, as DDS sends them: rclpy's serialize_message
     leaves heap garbage in the padding, so its bytes are not reproducible. A writer generated from the message
-    definition (checked on the first message of each type against rclpy bytes -> rosbags message -> bytes, the
-    slow way used for types it does not write); types rosbags does not know: rclpy's bytes."""
+    definition (its padding is zeros by construction; checked on the first message of each type: rclpy reads its
+    bytes back as an equal message), else rclpy bytes -> rosbags message -> bytes (the slow way, for types it does
+    not write); types rosbags does not know: rclpy's bytes."""
     known = _WRITERS.get(type(msg))
     if known is None:
         msgtype = type_name(type(msg))
         if msgtype not in typestore().types:
             from rclpy.serialization import serialize_message
             return serialize_message(msg)
+        from rclpy.serialization import deserialize_message
         try:
             writer = _Coder(type(msg), "write").function
-            ok = _written(writer, msg) == _round_trip(msg, msgtype)
+            ok = deserialize_message(_written(writer, msg), type(msg)) == msg
         except Exception:  # noqa: BLE001  (an unsupported field)
             ok = False
         _WRITERS[type(msg)] = known = msgtype, writer if ok else None
