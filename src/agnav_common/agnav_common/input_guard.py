@@ -12,8 +12,9 @@ Covariance rules (`covariance`): NaN/Inf or negative variances, or a matrix that
 after symmetrisation, are rejected; variances below a floor (zero) are raised to it and reported as floored.
 """
 import math
-from collections import deque
+from collections import Counter, deque
 from dataclasses import dataclass
+from operator import itemgetter
 
 import numpy as np
 
@@ -127,10 +128,7 @@ class EventWindow:
     def recent(self, now):
         """{name: count} of the events in (now - window, now]."""
         self._expire(now)
-        out = {}
-        for _, name in self._recent:
-            out[name] = out.get(name, 0) + 1
-        return out
+        return dict(Counter(map(itemgetter(1), self._recent)))  # counted in C; keys in order of first occurrence
 
     def _expire(self, now):
         while self._recent and (self._recent[0][0] <= now - self.window or self._recent[0][0] > now + self.window):
