@@ -19,8 +19,8 @@ def test_odom_is_continuous_and_composes_to_the_map_pose():
         rpy = (0.02, -0.01, yaw)
         xyz, quat, map_xyz, map_quat = odom.update(t, position, rpy, speed, rate)
         if last is not None:
-            steps.append(np.linalg.norm(xyz - last))
-        last = xyz.copy()
+            steps.append(np.linalg.norm(np.subtract(xyz, last)))
+        last = xyz
         base_in_map = Rotation.from_quat(map_quat).apply(xyz) + map_xyz
         assert np.allclose(base_in_map, position, atol=1e-9)
         rot = Rotation.from_quat(map_quat) * Rotation.from_quat(quat)

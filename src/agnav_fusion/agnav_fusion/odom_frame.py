@@ -3,13 +3,12 @@ own speed and yaw rate and never corrected, so it never jumps; the corrections t
 go into map->odom. At the start (and when time goes backwards: a new replay) odom coincides with map."""
 import math
 
-import numpy as np
-
 from agnav_common.frames import quaternion_from_euler
 
 
 class OdomFrame:
-    """update(t, position, rpy, speed, yaw_rate) -> (odom->base xyz, xyzw, map->odom xyz, xyzw)."""
+    """update(t, position, rpy, speed, yaw_rate) -> (odom->base xyz, xyzw, map->odom xyz, xyzw), tuples (no arrays
+    per sample: the transforms take floats)."""
 
     def __init__(self):
         self.t = None
@@ -32,6 +31,6 @@ class OdomFrame:
         d = yaw - self.yaw
         c, s = math.cos(d), math.sin(d)
         x, y, z = self.xyz
-        trans = np.array([position[0] - (c * x - s * y), position[1] - (s * x + c * y), position[2] - z])
-        return np.array(self.xyz), quaternion_from_euler(roll, pitch, self.yaw), trans, (0.0, 0.0, math.sin(d / 2),
-                                                                                        math.cos(d / 2))
+        trans = (position[0] - (c * x - s * y), position[1] - (s * x + c * y), position[2] - z)
+        return self.xyz, quaternion_from_euler(roll, pitch, self.yaw), trans, (0.0, 0.0, math.sin(d / 2),
+                                                                              math.cos(d / 2))
