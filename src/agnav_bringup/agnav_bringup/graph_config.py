@@ -20,6 +20,7 @@ import difflib
 import os
 import sys
 from dataclasses import dataclass, field
+from functools import lru_cache
 from importlib.metadata import entry_points
 from pathlib import Path
 
@@ -37,6 +38,13 @@ class ConfigError(ValueError):
     """A graph config that cannot be used; the message is one line for the user."""
 
 
+
+@lru_cache(maxsize=1)
+def _console_scripts():
+    """The installed console_scripts entry points, scanned once per process (~10 ms each scan)."""
+    return entry_points(group="console_scripts")
+
+
 @dataclass
 class NodeSpec:
     executable: str
@@ -50,7 +58,7 @@ class NodeSpec:
 
     def node_class(self):
         """The rclpy Node class behind the console script (exposed by agnav_common.node_main.main_for)."""
-        found = entry_points(group="console_scripts", name=self.executable)
+        found = _console_scripts().select(name=self.executable)
         if not found:
             raise LookupError(f"no console script '{self.executable}' is installed (run `make setup`)")
         main = next(iter(found)).load()

@@ -9,6 +9,7 @@ import dataclasses
 import inspect
 import math
 import re
+from functools import lru_cache
 
 import yaml
 
@@ -26,9 +27,11 @@ def bounded(low, high):
     return {"range": (low, high)}
 
 
+@lru_cache(maxsize=None)
 def field_docs(cls):
     """{field name: comment} from the source of dataclass `cls` and its dataclass bases (continuation comment lines
-    are appended; a subclass's comment wins)."""
+    are appended; a subclass's comment wins). Cached (inspect parses the whole module per class; roll and pitch
+    filters share their settings classes): do not modify the dict."""
     docs, last = {}, None
     for base in cls.__mro__[1:]:
         if dataclasses.is_dataclass(base):
