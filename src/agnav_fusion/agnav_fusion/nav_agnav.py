@@ -52,9 +52,8 @@ class AgnavEstimator:
         s = self.m.settings
         gyro = gyro.tolist()  # per sample on Python floats (the same arithmetic as numpy's, less overhead)
         roll0, pitch0 = (prev.roll, prev.pitch) if prev else (0.0, 0.0)
-        droll, dpitch, dyaw = euler_rates(gyro, roll0, -pitch0)
         # the y gyro's bias (the pitch filter's) enters the yaw rate by sin(roll): a heading drift on cross slopes
-        _, _, dyaw = euler_rates((gyro[0], gyro[1] + self.pitch_filter.bias, gyro[2]), roll0, -pitch0)
+        droll, dpitch, dyaw = euler_rates(gyro, roll0, -pitch0, self.pitch_filter.bias)
         rate_cw = -dyaw
         lever_acc = self._lever_acceleration(gyro, prev, dt)
         acc, acc_var = self._kinematic_acceleration(gyro, lever_acc) if s.accel_compensation else ((0.0,) * 3,

@@ -111,9 +111,10 @@ class Sample:
     accel: float = None       # agnav: along-track acceleration of base_link from the accelerometer (m/s^2)
 
 
-def euler_rates(body_rates, roll, pitch):
-    """REP-103 Euler-angle rates (roll, pitch, yaw)' from FLU body rates (p, q, r)."""
+def euler_rates(body_rates, roll, pitch, yaw_q_offset=0.0):
+    """REP-103 Euler-angle rates (roll, pitch, yaw)' from FLU body rates (p, q, r); the yaw rate's q plus
+    yaw_q_offset (a y gyro bias correction that the tilt rates leave to their own filters)."""
     p, q, r = body_rates
     sr, cr = math.sin(roll), math.cos(roll)
     cp = max(math.cos(pitch), 1e-3)
-    return (p + (q * sr + r * cr) * math.tan(pitch), q * cr - r * sr, (q * sr + r * cr) / cp)
+    return (p + (q * sr + r * cr) * math.tan(pitch), q * cr - r * sr, ((q + yaw_q_offset) * sr + r * cr) / cp)
