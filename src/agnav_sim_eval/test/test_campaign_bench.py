@@ -1,5 +1,6 @@
 """`agnav bench campaign` end to end on two short runs through the shipped graphs (nsm / ins)."""
 import json
+import math
 import os
 import subprocess
 import sys
@@ -29,7 +30,7 @@ def test_campaign_two_short_runs_json_keys():
 
 def test_outages_are_found_in_the_fixes_and_scored_on_their_own():
     import numpy as np
-    from agnav_sim_eval.bench.campaign_score import RECOVERY_S, outage_rows, outages
+    from agnav_sim_eval.bench.campaign_score import RECOVERY_CM, RECOVERY_S, outage_rows, outages
 
     fix_t = np.concatenate([np.arange(0.0, 20.0, 0.2), np.arange(50.0, 80.0, 0.2)])  # 5 Hz, 30 s pause
     assert outages(fix_t, 0.0, 80.0) == [(fix_t[99], 50.0)]
@@ -39,6 +40,11 @@ def test_outages_are_found_in_the_fixes_and_scored_on_their_own():
     truth = {"t": t, "x": 0.8 * t, "y": np.zeros_like(t)}  # 0.8 m/s east
     drift = np.where((t > 19.8) & (t < 50.0), (t - 19.8) * 0.05, 0.0)  # 5 cm/s, gone when the fixes return
     series = {"t": t, "east": drift * 100, "north": np.full_like(t, 3.0)}
-    (row,) = outage_rows(series, truth, outages(fix_t, 0.0, 80.0))
+    fix_err = np.where(fix_t > 55.0, 0.16, 0.02)  # the receiver's own error jumps to 16 cm 5 s after the return
+    (row,) = outage_rows(series, truth, outages(fix_t, 0.0, 80.0), (fix_t, fix_err))
     assert abs(row["travelled_m"] - 0.8 * 30.2) < 0.05 and abs(row["drift_m"] - 1.51) < 0.01
+    assert abs(row["max_error_m"] - math.hypot(row["drift_m"], 0.03)) < 1e-9  # the 3 cm it had is not drift
     assert abs(row["drift_share"] - 1.51 / 24.16) < 1e-3 and abs(row["after_cm"] - 3.0) < 1e-9 and RECOVERY_S == 10.0
+    assert abs(row["after_floor_cm"] - 16.0) < 1e-9 and abs(row["after_over_bound"] - 3.0 / 16.0) < 1e-9
+    (row,) = outage_rows(series, truth, outages(fix_t, 0.0, 80.0), (fix_t, np.full_like(fix_t, 0.02)))
+    assert abs(row["after_over_bound"] - 3.0 / RECOVERY_CM) < 1e-9  # a good receiver: the 10 cm of issue 15

@@ -9,9 +9,10 @@ the bag's /tf_static (nothing else changes). Each run is scored against truth, a
 RMS horizontal error of its fixes moved to base_link with the true attitude: what a perfect filter fed those fixes
 reaches) and against its own covariance (share of samples within 3σ, per axis, the worst axis counted, over the
 whole run). The floor exists while fixes arrive, so the floor ratios leave out GNSS outages (a pause of the fixes
-longer than 5 intervals and 2 s) and the 10 s after each; an outage is scored on its own: its largest error as a
-share of the distance driven in it (bound: issue 15's 1.5 m after 30 s at 0.8 m/s) and the error 10 s after the
-fixes return. The whole-run RMS is listed too.
+longer than 5 intervals and 2 s) and the 10 s after each; an outage is scored on its own: its drift (how far the
+error moves away from the error the run had when the fixes stopped) as a share of the distance driven in it (bound: issue 15's 1.5 m after 30 s at 0.8 m/s) and the error 10 s after the
+fixes return (bound: issue 15's 10 cm, or the receiver's own error there where that is worse, as the thesis bench
+takes max(thesis, floor)). The whole-run RMS is listed too.
 Tune only on seeds < 1000; report on seeds >= 1000, which no tuning has seen.
 """
 import argparse
@@ -29,7 +30,7 @@ import yaml
 
 from agnav_bringup.graph_config import load_config
 from agnav_sim_eval.bench import docs_option, report
-from agnav_sim_eval.bench.campaign_score import RECOVERY_S, score_run, static_transforms
+from agnav_sim_eval.bench.campaign_score import RECOVERY_CM, RECOVERY_S, score_run, static_transforms
 from agnav_sim_eval.bench.realdata import replay
 
 CONFIGS = {"thesis": "nsm", "mems": "ins"}
@@ -41,7 +42,9 @@ METRICS = (  # key, label, acceptance (p95 bound, "<=" or ">=")
     ("horizontal_rms_over_floor", "horizontal RMS / receiver floor", (1.3, "<=")),
     ("max_over_floor_max", "max error / floor max", (3.0, "<=")),
     ("outage_drift_share", "outage drift / distance travelled", (OUTAGE_DRIFT_SHARE, "<=")),
-    ("outage_after_cm", f"error {RECOVERY_S:g} s after an outage cm", (10.0, "<=")),
+    ("outage_after_cm", f"error {RECOVERY_S:g} s after an outage cm", None),
+    ("outage_after_over_bound", f"error {RECOVERY_S:g} s after an outage / max({RECOVERY_CM:g} cm, fixes' own)",
+     (1.0, "<=")),
     ("floor_rms_cm", "receiver floor RMS cm", None),
     ("roll_rms_deg", "roll RMS deg", (0.3, "<=")),
     ("pitch_rms_deg", "pitch RMS deg", (0.3, "<=")),
