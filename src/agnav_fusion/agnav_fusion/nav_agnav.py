@@ -133,15 +133,19 @@ class AgnavEstimator:
         """Fuse a tilt-corrected fix (and its receiver velocity; `differenced`: the baseline in s of a velocity from
         fix differences, 0 for a receiver's) at history sample k; True when the position was accepted."""
         m, s = self.m, self.m.settings
+        check_var, baseline = vel_var, differenced  # what tells the tilt filters whether a start was missed
         if speed is None and m.last_fix is not None:  # V from successive tilt-corrected fixes
-            speed = float(np.hypot(*(xy - m.last_fix[1][:2]))) / max(t - m.last_fix[0], 1e-3)
+            interval = max(t - m.last_fix[0], 1e-3)
+            speed = float(np.hypot(*(xy - m.last_fix[1][:2]))) / interval
+            if vel_var is None:  # the interval's mean speed; noise: both fixes' white parts
+                check_var, baseline = 2.0 * self._white_variance(R) / interval ** 2, interval
         doppler = not differenced and self._doppler(vel, vel_var)
         # still: slower than stationary_speed, or for a receiver velocity than twice its noise (its norm's bias); a
         # fix difference (antenna sway, jitter) only when the EKF's speed agrees
         still_below = max(s.stationary_speed, 2.0 * s.velocity_sigma) if doppler else s.stationary_speed
         creeping = doppler or self.ekf.x is None or abs(self.ekf.x[IV]) < still_below
         was_still, self.still = self.still, speed is not None and speed < still_below and creeping
-        self.accel_miss = self._check_speed_model(k, t, speed, vel_var, doppler, differenced)
+        self.accel_miss = self._check_speed_model(k, t, speed, check_var, doppler, baseline)
         accepted = self._fuse_fix(k, t, xy, R, v_ref, vel_var, speed, was_still and not self.still, doppler,
                                   differenced)
         self.last_fix_t = t
@@ -239,13 +243,18 @@ class AgnavEstimator:
             hist[j].nav, hist[j].heading = (ekf.x.copy(), ekf.P.copy()), ekf.x[IPHI]
         return verdict is not False
 
+    def _white_variance(self, R):
+        """Per-axis variance of a fix's own error in R, less the antenna lever placed with the heading's uncertainty
+        (the same for successive fixes while the heading holds)."""
+        return max(float(np.trace(R)) / 2 - tilt_variance(self.m.lever, 0.0, 0.0, self.ekf.P[IPHI, IPHI]), 0.0)
+
     def _fix_before_heading(self, snap, t, xy, R, v_ref, vel_var, speed, doppler, baseline):
         """No heading yet: decoupled heading and crab, speed fused, the position follows the fixes; the heading comes
         from the chord of the fixes (heading_chord.py) once it is known within chord_max_sigma (published once the
         filter has it within heading_valid_sigma); the receiver's
         course is a provisional heading meanwhile."""
         m, s, ekf = self.m, self.m.settings, self.ekf
-        heading_part = tilt_variance(m.lever, 0.0, 0.0, ekf.P[IPHI, IPHI])  # of R: the lever placed blindly
+        white = self._white_variance(R)
         for i, var in ((IPHI, math.pi ** 2), (IB, ekf.P[IB, IB]), (IC, s.ekf.crab_sigma ** 2)):
             ekf.P[i, :] = ekf.P[:, i] = 0.0
             ekf.P[i, i] = var
@@ -256,7 +265,6 @@ class AgnavEstimator:
             self._fuse(ekf.speed_innovation(speed, vel_var), gated=False)
         elif baseline and baseline <= s.history and not ekf.accel_mode and speed > 3.0 * math.sqrt(vel_var):
             self._fuse(ekf.speed_innovation(speed, vel_var, baseline / 2), gated=False)  # mean speed of the baseline
-        white = max(float(np.trace(R)) / 2 - heading_part, 0.0)
         antenna = xy + antenna_offset(m.lever, snap.heading, snap.pitch, snap.roll)[:2]
         chord = self.chord.add(m.lever, t, antenna, snap.raw_heading, snap.pitch, snap.roll, white)
         if chord is not None:
