@@ -1,7 +1,10 @@
 """`agnav`: one command for the graph runner (this package) and the simulator, evaluator, calibration and
 benchmarks of agnav_sim_eval (imported on use: a product install without it still runs graphs)."""
+import atexit
 import importlib
+import os
 import sys
+import threading
 
 COMMANDS = {
     "run": ("agnav_bringup.runner", "start a graph config (replay a bag, record, evaluate)"),
@@ -40,8 +43,23 @@ def recover(argv):
     return 0
 
 
+def exit_now(status):
+    """End the process as the interpreter would (other threads joined, atexit handlers run, stdio flushed) minus its
+    teardown: freeing every module (~0.1 s CPU after a replay) and Fast DDS's participant factory, whose destructor
+    sleeps 100 ms."""
+    for thread in threading.enumerate():
+        if thread is not threading.current_thread() and not thread.daemon:
+            thread.join()
+    atexit._run_exitfuncs()
+    sys.stdout.flush()
+    sys.stderr.flush()
+    os._exit(status or 0)
+
+
 def main(argv=None):
-    argv = sys.argv[1:] if argv is None else argv
+    """Called as the program (argv None: the console script, python -m) the process ends in exit_now."""
+    if argv is None:
+        exit_now(main(sys.argv[1:]))
     if not argv or argv[0] in ("-h", "--help") or argv[0] not in COMMANDS:
         print("usage: agnav COMMAND [...]\n" + "\n".join(f"  {k:9s} {v[1]}" for k, v in COMMANDS.items()))
         return 0 if argv and argv[0] in ("-h", "--help") else 2
