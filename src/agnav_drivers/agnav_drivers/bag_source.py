@@ -5,8 +5,7 @@ import tempfile
 from pathlib import Path
 from typing import NamedTuple
 
-from rosbags.convert import convert
-from rosbags.highlevel import AnyReader
+from rosbags.rosbag2 import Reader
 
 from agnav_common.bagio import typestore
 from agnav_common.mcap_recording import unfinished
@@ -28,6 +27,7 @@ def as_rosbag2(path, cache_dir=None):
     cache = Path(cache_dir or Path(tempfile.gettempdir()) / "agnav_bag_cache")
     dst = cache / f"{path.stem}-{digest}"
     if not (dst / "metadata.yaml").exists():  # written last: marks a complete conversion
+        from rosbags.convert import convert  # ~35 ms of imports, for ROS 1 bags only
         shutil.rmtree(dst, ignore_errors=True)
         cache.mkdir(parents=True, exist_ok=True)
         convert([path], dst, dst_storage="mcap", dst_version=9, compress=None, compress_mode="file",
@@ -37,7 +37,8 @@ def as_rosbag2(path, cache_dir=None):
 
 
 class BagSource:
-    """Ordered messages of a bag, optionally filtered by topic and started at an offset (s)."""
+    """Ordered messages of a bag, optionally filtered by topic and started at an offset (s); read as raw rosbag2
+    (a ROS 1 bag converted first), without rosbags' AnyReader, which parses and checks every type definition."""
 
     def __init__(self, path, topics=None, start_offset=0.0, cache_dir=None):
         """ValueError (one line) for a bag without messages on the selected topics or a killed recording."""
@@ -45,7 +46,7 @@ class BagSource:
         if unfinished(self.path):
             raise ValueError(f"{self.path} is an unfinished recording (its recorder was killed): "
                              f"finish it with `agnav recover {self.path}`")
-        self._reader = AnyReader([self.path], default_typestore=typestore())
+        self._reader = Reader(self.path)
         self._reader.open()
         wanted = set(topics) if topics else None
         self.connections = [c for c in self._reader.connections
@@ -66,9 +67,7 @@ class BagSource:
 
     def __iter__(self):
         for conn, stamp_ns, raw in self._reader.messages(connections=self.connections, start=self.start_ns):
-            data = raw if self._reader.is2 else self._reader.typestore.serialize_cdr(
-                self._reader.deserialize(raw, conn.msgtype), conn.msgtype)
-            yield BagMessage(conn.topic, conn.msgtype, stamp_ns, bytes(data))
+            yield BagMessage(conn.topic, conn.msgtype, stamp_ns, bytes(raw))
 
     def close(self):
         self._reader.close()
