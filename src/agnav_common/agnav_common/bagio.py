@@ -2,19 +2,24 @@
 files), CDR coders for rclpy messages, and bag filtering (recordings that survive a killed recorder:
 mcap_recording)."""
 import array
+import hashlib
 import importlib
 import itertools
+import json
 import os
 import struct
 import sys
+import tempfile
 from functools import lru_cache
 from io import BytesIO
 from pathlib import Path
 
 import numpy
+import rosbags.typesys
 from rosbags.typesys import Stores, get_typestore, get_types_from_msg
 
 INTERFACE_PACKAGES = ("agnav_msgs", "tf2_msgs")
+STORE = Stores.ROS2_KILTED
 
 
 def _share_dirs():
@@ -35,7 +40,7 @@ def msg_definitions(package):
 @lru_cache(maxsize=1)
 def typestore():
     """Kilted type store with the project's interfaces registered (cached)."""
-    store = get_typestore(Stores.ROS2_KILTED)
+    store = get_typestore(STORE)
     types = {}
     for package in INTERFACE_PACKAGES:
         for name, text in msg_definitions(package).items():
@@ -43,6 +48,43 @@ def typestore():
                 types.update(get_types_from_msg(text, name))
     store.register(types)
     return store
+
+
+_definitions = {}  # "file": the cache file of definition(), "types": msgtype -> [msgdef, rihs01] or None
+
+
+def _definitions_file():
+    """The cache file of definition(), named by what the store is built from: rosbags' store modules (their sizes
+    and times) and the interface files."""
+    key = hashlib.sha256(STORE.value.encode())
+    for f in sorted((Path(rosbags.typesys.__file__).parent / "stores").glob("*.py")):
+        key.update(f"{f.name} {f.stat().st_size} {f.stat().st_mtime_ns}".encode())
+    for package in INTERFACE_PACKAGES:
+        key.update(json.dumps(msg_definitions(package), sort_keys=True).encode())
+    return Path(tempfile.gettempdir()) / "agnav_msgdefs" / f"{key.hexdigest()[:16]}.json"
+
+
+def definition(msgtype):
+    """(msgdef, rihs01) of msgtype as rosbags' Writer.add_connection derives them from typestore() (its ROS 2
+    message definition and type hash), None for a type the store does not know. Cached on disk: building the
+    store costs ~0.1 s of every recording's start-up."""
+    if not _definitions:
+        path = _definitions["file"] = _definitions_file()
+        try:
+            _definitions["types"] = json.loads(path.read_text())
+        except (OSError, ValueError):
+            _definitions["types"] = {}
+    types = _definitions["types"]
+    if msgtype not in types:
+        store = typestore()
+        types[msgtype] = ([store.generate_msgdef(msgtype, ros_version=2)[0], store.hash_rihs01(msgtype)]
+                          if msgtype in store.types else None)
+        path = _definitions["file"]
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = path.with_suffix(f".{os.getpid()}")
+        tmp.write_text(json.dumps(types))
+        os.replace(tmp, path)  # whole files only, whoever writes last
+    return types[msgtype]
 
 
 def type_name(msg_type):
@@ -63,7 +105,7 @@ def cdr(msg):
     known = _WRITERS.get(type(msg))
     if known is None:
         msgtype = type_name(type(msg))
-        if msgtype not in typestore().types:
+        if definition(msgtype) is None:
             from rclpy.serialization import serialize_message
             return serialize_message(msg)
         from rclpy.serialization import deserialize_message

@@ -42,3 +42,15 @@ def test_generated_coders_match_rclpy_and_rosbags(msg):
     assert deserialize_message(data, type(msg)) == msg
     assert bagio.from_cdr(data, type(msg)) == msg
     assert bagio._READERS[type(msg)] is not None
+
+
+def test_definitions_as_the_store_derives_them_and_cached(tmp_path, monkeypatch):
+    monkeypatch.setattr("tempfile.tempdir", str(tmp_path))
+    monkeypatch.setattr(bagio, "_definitions", {})
+    store, types = bagio.typestore(), ["nav_msgs/msg/Odometry", "agnav_msgs/msg/Inclination", "no_msgs/msg/Nothing"]
+    expected = [[store.generate_msgdef(t, ros_version=2)[0], store.hash_rihs01(t)] if t in store.types else None
+                for t in types]
+    assert [bagio.definition(t) for t in types] == expected
+    monkeypatch.setattr(bagio, "_definitions", {})  # a new process: from the file alone
+    monkeypatch.setattr(bagio, "typestore", None)
+    assert [bagio.definition(t) for t in types] == expected

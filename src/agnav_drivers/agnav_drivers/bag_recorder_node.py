@@ -17,7 +17,7 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPo
 from rosbags.rosbag2 import StoragePlugin, Writer
 
 from agnav_common import local_bus
-from agnav_common.bagio import typestore
+from agnav_common.bagio import definition
 from agnav_common.mcap_recording import close_recording, flush_recording, write_message
 from agnav_common.diagnostics import OK, Diagnostics
 from agnav_common.node_main import main_for
@@ -49,7 +49,6 @@ class BagRecorderNode(Node):
             raise ValueError("parameter 'output' (rosbag2 folder to create) is required")
         self.topics = [t for t in p.topics if t]
         self.exclude = set(p.exclude) | set(ALWAYS_EXCLUDED)
-        self.store = typestore()
         self.writer = Writer(Path(p.output), version=9, storage_plugin=StoragePlugin.MCAP)
         self.writer.open()
         self.connections = {}
@@ -77,10 +76,11 @@ class BagRecorderNode(Node):
             except (ImportError, AttributeError):
                 continue
             offered = [info.qos_profile for info in self.get_publishers_info_by_topic(topic)]
-            if msgtype not in self.store.types or not offered:  # as rosbag2: no unpublished topics (yet)
+            known = definition(msgtype)
+            if known is None or not offered:  # as rosbag2: no unpublished topics (yet)
                 continue
             self.connections[topic] = self.writer.add_connection(
-                topic, msgtype, typestore=self.store, offered_qos_profiles=bag_profiles(topic, offered))
+                topic, msgtype, msgdef=known[0], rihs01=known[1], offered_qos_profiles=bag_profiles(topic, offered))
             self.counts[topic] = 0
             qos = self._qos_for(offered)
             self.create_subscription(cls, topic, lambda data, t=topic: self._write(t, data), qos, raw=True)
