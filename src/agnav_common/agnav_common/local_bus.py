@@ -107,6 +107,7 @@ class LocalBus:
         self._advancing = False
         self._saved = {}
         self._now_patch = None
+        self._time_ns, self._time = None, None  # the bus time of _time, an rclpy Time (immutable: shared)
 
     # -- installation ---------------------------------------------------------------------------------------------
     def install(self):
@@ -178,7 +179,9 @@ class LocalBus:
         """ROSClock.now while installed: the bus time for the clock of a sim-time node (what its rcl clock would
         say once set), rclpy's for any other."""
         if any(clock in source._associated_clocks for source in self.time_sources):
-            return Time(nanoseconds=self.now, clock_type=ClockType.ROS_TIME)
+            if self._time_ns != self.now:
+                self._time_ns, self._time = self.now, Time(nanoseconds=self.now, clock_type=ClockType.ROS_TIME)
+            return self._time
         return original(clock)
 
     def _node_create_timer(self, original, node, *args, **kwargs):
