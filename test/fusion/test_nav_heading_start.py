@@ -196,6 +196,21 @@ def test_a_start_before_any_fix_difference_velocity_does_not_bend_the_pitch_filt
     assert math.sqrt(np.mean(moving ** 2)) < math.radians(1.0) and np.abs(moving).max() < math.radians(2.2)
 
 
+def test_a_10_hz_receiver_without_velocity_tells_standing_from_moving():
+    """Standing 20 s, then 0.5 m/s, 10 Hz fixes (1 cm) without /gnss/vel: two successive fixes differ by 0.14 m/s of
+    noise, beyond the 0.05 m/s still threshold (campaign seed 184: standstill flickered, each flicker a start),
+    so fixes still_baseline apart tell it: still throughout the stand, moving soon after the start."""
+    still = []
+
+    def probe(t, nsm):
+        if abs(t * 10 - round(t * 10)) < 1e-6:
+            still.append((t, nsm.estimator.still))
+    drive(lambda t: 0.5 * float(np.clip(t - 20.0, 0.0, 1.0)), lambda t: 0.0, seconds=25.0, sway=0.0, hook=probe,
+          differences=False)
+    t, flag = (np.array(c) for c in zip(*still))
+    assert flag[(t > 2.0) & (t < 20.0)].all() and not flag[t > 21.5].any()
+
+
 def test_the_smoother_log_keeps_one_step_per_imu_sample():
     """A fix waits half the lever-rate window, then the IMU samples since its epoch are predicted again: their
     first log entries go, so the log (kalman.smooth_log, the RTS row of `agnav bench thesis`) keeps one step per

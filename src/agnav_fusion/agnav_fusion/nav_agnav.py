@@ -7,6 +7,7 @@ the heading is known: it repeats the fixes' own information, late by half its ba
 inside (heading clockwise from north, pitch nose up); NavSensorModule converts at its boundary.
 """
 import math
+from collections import deque
 
 import numpy as np
 from agnav_common.frames import cross_floats
@@ -38,6 +39,7 @@ class AgnavEstimator:
         self.still = False         # the latest fix says the vehicle stands still
         self.fix_speed = None      # (epoch, EKF speed after the fix): the fixes' own acceleration
         self.last_fix_t = math.inf  # epoch of the latest fix, accepted or not
+        self.recent_fixes = deque()  # (epoch, tilt-corrected xy) of the fixes of the last still_baseline s
         self.accel_miss = 0.0      # m/s^2, acceleration the speed model missed before the latest fix
         self.alpha = [0.0, 0.0, 0.0]  # rad/s^2, low-passed angular acceleration (lever-arm acceleration)
         self.fix_accel = 0.0       # m/s^2, speed change between fixes: compensates the inclinometer in accelerometer
@@ -134,9 +136,10 @@ class AgnavEstimator:
         fix differences, 0 for a receiver's) at history sample k; True when the position was accepted."""
         m, s = self.m, self.m.settings
         check_var, baseline = vel_var, differenced  # what tells the tilt filters whether a start was missed
-        if speed is None and m.last_fix is not None:  # V from successive tilt-corrected fixes
-            interval = max(t - m.last_fix[0], 1e-3)
-            speed = float(np.hypot(*(xy - m.last_fix[1][:2]))) / interval
+        earlier = self._earlier_fix(t, xy)
+        if speed is None and earlier is not None:  # V from tilt-corrected fixes still_baseline s apart
+            interval = max(t - earlier[0], 1e-3)
+            speed = float(np.hypot(*(xy - earlier[1]))) / interval
             if vel_var is None:  # the interval's mean speed; noise: both fixes' white parts
                 check_var, baseline = 2.0 * self._white_variance(R) / interval ** 2, interval
         doppler = not differenced and self._doppler(vel, vel_var)
@@ -242,6 +245,17 @@ class AgnavEstimator:
             self.propagate(hist[j].rate_cw, hist[j].dt, hist[j].still, hist[j].wheel, hist[j].accel, hist[j].roll)
             hist[j].nav, hist[j].heading = (ekf.x.copy(), ekf.P.copy()), ekf.x[IPHI]
         return verdict is not False
+
+    def _earlier_fix(self, t, xy):
+        """The newest earlier tilt-corrected fix (epoch, xy) at least still_baseline s before t, else the oldest
+        kept (None for the first); remembers this one. Successive fixes of a 5-10 Hz receiver are too close for
+        their difference to tell standing from creeping."""
+        recent = self.recent_fixes
+        while len(recent) > 1 and recent[1][0] <= t - self.m.settings.still_baseline:
+            recent.popleft()
+        earlier = recent[0] if recent else None
+        recent.append((t, np.asarray(xy[:2], dtype=float)))
+        return earlier
 
     def _white_variance(self, R):
         """Per-axis variance of a fix's own error in R, less the antenna lever placed with the heading's uncertainty

@@ -49,6 +49,7 @@ class NavSensorModuleSettings:
     heading_valid_sigma: float = 0.05         # rad: the heading is published once known this well (agnav)
     chord_max_sigma: float = 0.15             # rad: a chord this good starts the heading, the fixes refine it (agnav)
     stationary_speed: float = 0.05            # m/s: slower fixes mark the vehicle still (yaw rate zero: gyro bias)
+    still_baseline: float = 1.0               # s, fixes this far apart give that speed without a receiver velocity
     standstill_sigma: float = 0.005           # m/s (and m/s^2): speed and acceleration of a vehicle at rest
     wheel_speed_sigma: float = 0.05           # m/s, floor of a wheel/radar speed's noise (agnav; /wheel/odometry)
     wheel_slip_sigma: float = 0.03            # of the speed: slip changes about the EKF's learnt wheel scale
