@@ -131,6 +131,22 @@ def test_a_mirror_image_heading_is_forgotten_and_started_again():
     assert t[-1] > 39.0 and abs(err[-1]) < math.radians(1.0)
 
 
+def test_a_widened_heading_stays_published_until_it_is_lost():
+    """Once published, a heading widened to 0.2 rad (what a 2 s IMU gap adds; the fault bench's imu_gap_2s went
+    silent for 3 s) stays published with that sigma; one beyond heading_lost_sigma (the mirror-image test) is not."""
+    def widen(t, nsm):
+        if abs(t - 30.0) < 0.5 / RATE:
+            for sample in nsm.history:
+                sample.nav[1][IPHI, IPHI] = 0.2 ** 2
+            nsm.estimator.ekf.P[IPHI, IPHI] = 0.2 ** 2
+    nsm, out = drive(lambda t: float(np.clip(t - 5.0, 0.0, 1.0)), lambda t: 0.0, seconds=40.0, doppler=True,
+                     hook=widen)
+    t, err, sig = heading_errors(out)
+    after = t > 30.0
+    assert np.diff(t[after]).max() < 0.02 and sig[after].max() > 0.15
+    assert np.all(np.abs(err) <= 3 * sig) and nsm.counters["heading_restart"] == 0
+
+
 def test_braking_without_receiver_velocity_is_followed_not_refused():
     """3.4 m/s, then braking to a stop at 1 m/s^2 with 1 Hz fixes and no /gnss/vel (campaign seed 238: the speed
     model kept 2.7 m/s, every fix was refused and the estimate ran 15 m past the stopped tractor): the fixes' along-

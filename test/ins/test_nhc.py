@@ -110,10 +110,11 @@ def _persisting_jump(traj, t_jump, seed):
 
 
 def test_realigns_after_fixes_stay_rejected():
-    """A 30 m jump that persists (a new correction source) is gated, then the filter re-aligns to it."""
+    """A 30 m jump that persists (a new correction source) is gated for reinit_after (30 s, like the nsm's
+    gnss_reset_time: a 20 s fault is ridden out), then the filter re-aligns to it."""
     ekf, err = _persisting_jump(sy.field_drive(duration=100.0, speed=2.0, leg=30.0, heading0=1.0), 40.0, 15)
     assert ekf.stats["rejected"].get("reinitialized", 0) >= 1
-    late = err.t > 60.0
+    late = err.t > 40.0 + ekf.s.reinit_after + 10.0
     assert np.linalg.norm(err.pos[late, :2] - [30.0, 0.0], axis=1).max() < 0.1
     assert np.degrees(np.abs(err.att[late, 2])).max() < 1.0
 

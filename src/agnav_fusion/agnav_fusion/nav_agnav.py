@@ -35,6 +35,7 @@ class AgnavEstimator:
         self.wheel = None          # latest wheel speed (t, speed, variance) not yet fused
         self.raw_heading = 0.0     # relative yaw before the absolute heading exists (less the yaw bias learnt)
         self.heading_known = False  # absolute heading initialised from the GNSS course
+        self.heading_valid = False  # published: the heading has been within heading_valid_sigma since it was known
         self.chord = HeadingChord(s.chord_max_turn, s.heading_init_distance, s.chord_max_sigma)
         self.still = False         # the latest fix says the vehicle stands still
         self.fix_speed = None      # (epoch, EKF speed after the fix): the fixes' own acceleration
@@ -294,7 +295,7 @@ class AgnavEstimator:
 
     def _forget_heading(self):
         """The heading is no longer known (diverged or reversed): nothing published until a new chord."""
-        self.heading_known = False
+        self.heading_known = self.heading_valid = False
         self.chord.clear()
         self.m.guard.count("heading_restart")
 
@@ -351,8 +352,12 @@ class AgnavEstimator:
             pose_cov.put(POSE_XY_YAW, P.take(EKF_XY_PHI) * YAW_SIGN)
             twist_cov[0, 0] = P[IV, IV]
             twist_cov[5, 5] = P[IB, IB] + m.settings.ekf.rate_noise ** 2
-            valid = self.heading_known and P[IPHI, IPHI] <= m.settings.heading_valid_sigma ** 2
-            return float(x[IV]), valid, True
+            # valid once within heading_valid_sigma, until beyond heading_lost_sigma or forgotten: an IMU gap or an
+            # outage widens the published covariance, it does not silence the output
+            s = m.settings
+            self.heading_valid = self.heading_known and P[IPHI, IPHI] <= (
+                s.heading_lost_sigma if self.heading_valid else s.heading_valid_sigma) ** 2
+            return float(x[IV]), self.heading_valid, True
         if m.last_fix is not None:
             position[:2] = m.last_fix[1][:2]
             pose_cov[:2, :2] = m.last_fix[2][:2, :2]

@@ -47,6 +47,7 @@ class NavSensorModuleSettings:
     heading_init_distance: float = 3.0        # m, shortest chord of fixes that initialises the heading
     chord_max_turn: float = 0.35              # rad of gyro turn a chord may span (agnav)
     heading_valid_sigma: float = 0.05         # rad: the heading is published once known this well (agnav)
+    heading_lost_sigma: float = 0.3           # rad: ... and until known worse than this (gaps, outages widen it)
     chord_max_sigma: float = 0.15             # rad: a chord this good starts the heading, the fixes refine it (agnav)
     stationary_speed: float = 0.05            # m/s: slower fixes mark the vehicle still (yaw rate zero: gyro bias)
     still_baseline: float = 1.0               # s, fixes this far apart give that speed without a receiver velocity

@@ -32,7 +32,7 @@ class InsEkfSettings:
     align_fix_course_sigma: float = math.radians(30.0)  # rad, course of a fix-difference velocity (lags in turns)
     aligned_heading_sigma: float = math.radians(1.0)  # rad, heading sigma below which the filter is aligned
     gate_probability: float = 0.9999           # chi-square innovation gate
-    reinit_after: float = 5.0                  # s of rejected GNSS, then the filter reinitialises
+    reinit_after: float = 30.0                 # s of rejected GNSS, then the filter reinitialises (nsm: gnss_reset_time)
     history: float = 2.0                       # s, latency compensation window
     gap_accel_sigma: float = 1.0               # m/s^2, unknown acceleration while IMU samples are missing
     gap_rate_sigma: float = 0.1                # rad/s, unknown rate (e.g. a turn begun) over an IMU gap
