@@ -35,7 +35,7 @@ class AgnavEstimator:
         self.wheel = None          # latest wheel speed (t, speed, variance) not yet fused
         self.raw_heading = 0.0     # relative yaw before the absolute heading exists (less the yaw bias learnt)
         self.heading_known = False  # absolute heading initialised from the GNSS course
-        self.heading_valid = False  # published: the heading has been within heading_valid_sigma since it was known
+        self.heading_valid = False  # published: within heading_valid_sigma once, not beyond heading_lost_sigma since
         self.chord = HeadingChord(s.chord_max_turn, s.heading_init_distance, s.chord_max_sigma)
         self.still = False         # the latest fix says the vehicle stands still
         self.fix_speed = None      # (epoch, EKF speed after the fix): the fixes' own acceleration

@@ -153,7 +153,7 @@ def score(out, source, fix_topic, half, bag_duration):
 
 def score_outages(out, source, fix_topic, windows):
     """Per outage window: the output's position against the removed fixes and its reported σ, up to its last output
-    (the node stops publishing once its heading σ passes heading_valid_sigma: `published_s` of the window)."""
+    (the node stops publishing once its heading σ passes heading_lost_sigma: `published_s` of the window)."""
     est, sigma, _, tf, e, n = outputs_and_fixes(out, source, fix_topic)
     rel = tf - tf[0]
     rows = []
@@ -266,7 +266,7 @@ def markdown(results):
             e = r["end_from_first_pose_m"]
             lines[-1] += (f" With every fix after {DEAD_RECKONING_FROM:.0f} s removed, the module dead-reckons on "
                           f"wheel odometry + gyro for {r['published_s']:.0f} s ({r['travelled_m']:.0f} m) and then stops "
-                          f"publishing (its heading σ passes heading_valid_sigma); its last output is {r['end_m']:.1f} m "
+                          f"publishing (its heading σ passes heading_lost_sigma); its last output is {r['end_m']:.1f} m "
                           f"from the removed fix of that moment (worst {r['max_m']:.1f} m) with σ_xy "
                           f"{r['sigma_end_m']:.1f} m, ({e[0]:.1f}, {e[1]:.1f}) m from its first pose.")
     lines += ["", "Data notes: test1's IMU mount is upstream's `static_transform_publisher 0 -0.3 0.52 -1.5708 0 1.5708` "
