@@ -116,6 +116,21 @@ class AttitudeKF:
         return ((x[0] + k0 * y, x[1] + k1 * y, x[2] + k2 * y),
                 (p00 - k0 * p02, p01 - k0 * p12, p02 - k0 * p22, p11 - k1 * p12, p12 - k1 * p22, p22 - k2 * p22))
 
+    def observe(self, angle, var):
+        """A direct reading of the angle (variance var, rad^2), gated like the inclinometer's."""
+        if self._x is None:
+            return
+        p00, p01, p02, p11, p12, p22 = self._p
+        S = p00 + var
+        y = angle - self._x[0]
+        if y * y / S > self.settings.gate:
+            self.rejected += 1
+            return
+        k0, k1, k2 = p00 / S, p01 / S, p02 / S
+        x = self._x
+        self._x = (x[0] + k0 * y, x[1] + k1 * y, x[2] + k2 * y)
+        self._p = (p00 - k0 * p00, p01 - k0 * p01, p02 - k0 * p02, p11 - k1 * p01, p12 - k1 * p02, p22 - k2 * p02)
+
     def checkpoint(self):
         """Keep a gyro-only copy from here (at a GNSS epoch that confirmed the acceleration compensation)."""
         if self._x is not None:

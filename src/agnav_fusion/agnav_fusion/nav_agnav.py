@@ -40,6 +40,7 @@ class AgnavEstimator:
         self.still = False         # the latest fix says the vehicle stands still
         self.fix_speed = None      # (epoch, EKF speed after the fix): the fixes' own acceleration
         self.last_fix_t = math.inf  # epoch of the latest fix, accepted or not
+        self.path_pitch_t = -math.inf
         self.recent_fixes = deque()  # (epoch, tilt-corrected xy) of the fixes of the last still_baseline s
         self.accel_miss = 0.0      # m/s^2, acceleration the speed model missed before the latest fix
         self.alpha = [0.0, 0.0, 0.0]  # rad/s^2, low-passed angular acceleration (lever-arm acceleration)
@@ -154,6 +155,20 @@ class AgnavEstimator:
                                   differenced)
         self.last_fix_t = t
         return accepted
+
+    def path_pitch(self, k, t, climb, speed, climb_var):
+        """The climb rate over the ground speed (m/s; at history sample k, fix epoch t) is the pitch of the path,
+        which the vehicle on its wheels shares (sway and short terrain waves aside), free of the accelerations the
+        inclinometer reads: a reading of the pitch filter's angle, moved to now by the filter's change since."""
+        s, hist = self.m.settings, self.m.history
+        if self.still or speed < s.path_pitch_speed or self.ekf.x is None:
+            return
+        theta = math.atan2(climb, speed) * (1.0 if self.ekf.x[IV] >= 0 else -1.0)
+        interval = min(max(t - self.path_pitch_t, 1e-3), 1.0)
+        self.path_pitch_t = t
+        var = (climb_var * (1.0 + math.tan(theta) ** 2) / speed ** 2
+               + s.path_pitch_sigma ** 2 / interval)
+        self.pitch_filter.observe(theta + hist[-1].pitch - hist[k].pitch, var)
 
     def _check_speed_model(self, k, t, speed, vel_var, doppler, baseline=0.0):
         """The GNSS speed tells whether the speed model's acceleration since the last epoch was right (it is also

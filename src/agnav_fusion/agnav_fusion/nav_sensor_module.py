@@ -57,6 +57,7 @@ class NavSensorModule:
         self._track = None           # (t, xy, velocity) of the latest fix, accepted or not
         self._smooth = False         # the latest fix continues that track without a step
         self.last_fix = None         # latest accepted corrected fix (t, xyz, cov)
+        self._climb_fixes = deque()  # (t, corrected ENU, white variance) of the last still_baseline s: path pitch
         self._antenna_fixes = deque()  # (t, antenna ENU) of the last DIFFERENCE_S: tells fix-differenced velocities
         self._state = None
 
@@ -197,7 +198,8 @@ class NavSensorModule:
             return
         corrected = tilt_correction.correct(antenna, self.lever, snap.heading, snap.pitch, snap.roll)
         # a differenced velocity is a mean over seconds: the antenna's sway velocity averages out of it
-        v_ref = None if vel is None else vel[:2] - (0.0 if differenced else self._lever_velocity(k))
+        lever_vel = np.zeros(3) if vel is None or differenced else self._lever_velocity(k)
+        v_ref = None if vel is None else vel[:2] - lever_vel[:2]
         R = self.estimator.white_fix_covariance(cov[:2, :2]) + self._tilt_variance() * np.eye(2)
         speed = float(np.hypot(*v_ref)) if v_ref is not None else None
         fwd = np.array([math.sin(snap.heading), math.cos(snap.heading)])
@@ -206,6 +208,33 @@ class NavSensorModule:
         if self.estimator.fix(k, t, xy, R, v_ref, vel, vel_var, speed, differenced):
             self._last_accepted_t = t
             self.last_fix = (t, corrected, cov)
+        if hasattr(self.estimator, "path_pitch"):
+            self._path_pitch(k, t, corrected, cov, v_ref, vel, vel_var, lever_vel, differenced)
+
+    def _path_pitch(self, k, t, corrected, cov, v_ref, vel, vel_var, lever_vel, differenced):
+        """Climb and ground speed at the epoch (a receiver's velocity) or over the still_baseline s since an earlier
+        fix (their difference, for the sample in the middle; the next difference starts at this fix); the vertical
+        noise is the horizontal one scaled as in the fix's covariance: the pitch of the path, for the estimator."""
+        s, hist = self.settings, self.history
+        vertical = max(float(cov[2, 2]) / max(float(cov[0, 0] + cov[1, 1]) / 2, 1e-12), 1.0)  # VDOP/HDOP squared
+        if v_ref is not None and not differenced:
+            self.estimator.path_pitch(k, t, float(vel[2] - lever_vel[2]), float(np.hypot(*v_ref)), vel_var * vertical)
+            return
+        white = float(np.trace(self.estimator.white_fix_covariance(cov[:2, :2]))) / 2
+        fixes = self._climb_fixes
+        fixes.append((t, corrected, white))
+        while len(fixes) > 2 and fixes[1][0] <= t - s.still_baseline:
+            fixes.popleft()
+        t0, p0, w0 = fixes[0]
+        mid = t - (t - t0) / 2
+        if t - t0 < s.still_baseline or hist[0].t > mid:
+            return
+        d = corrected - p0
+        fixes.clear()  # the next difference starts here: no fix's noise counted twice
+        fixes.append((t, corrected, white))
+        self.estimator.path_pitch(max(i for i in range(k + 1) if hist[i].t <= mid), t, d[2] / (t - t0),
+                                  float(np.hypot(d[0], d[1])) / (t - t0),
+                                  (w0 + white) * vertical / (t - t0) ** 2)
 
     def gate(self, t, d2):
         """True to accept; False (counted) to refuse; None once fixes have been refused for gnss_reset_time (a
@@ -278,7 +307,7 @@ class NavSensorModule:
         v_body = cross(omega, self.settings.lever_flu)
         e = tilt_correction.vehicle_to_ground(snap.heading, snap.pitch, snap.roll)
         right_fwd_up = np.array([-v_body[1], v_body[0], v_body[2]])
-        return (e @ right_fwd_up)[:2]
+        return e @ right_fwd_up
 
     def _output(self):
         s, snap = self.settings, self.history[-1]

@@ -59,6 +59,8 @@ class NavSensorModuleSettings:
     lever_rate_sigma: float = 0.02            # rad/s, error of that rate at the receiver's velocity epoch (sway)
     lever_accel_tau: float = 0.1              # s, low-pass of the angular acceleration (gyro differences) in the
     #                                           tilt sensor's lever-arm acceleration: sway passes, differentiated noise not
+    path_pitch_speed: float = 1.0             # m/s: faster, the GNSS climb over the ground speed is the pitch (agnav)
+    path_pitch_sigma: float = 0.015           # rad, body pitch off the path's over 1 s of fixes (sway, terrain waves)
     fix_accel_gain: float = 0.3               # smoothing of the fixes' speed change (inclinometer compensation)
     max_accel: float = 3.0                    # m/s^2, along-track accelerometer reading clipped (bumps) (agnav)
     still_rate_sigma: float = 0.01            # rad/s per IMU sample of a still gyro (ENV-05F 0.25 deg/s, 10 Hz band)
