@@ -15,8 +15,9 @@ import numpy as np
 
 @dataclass
 class LagIdentifierSettings:
-    span: float = 4.0            # the grid covers tau / span .. tau x span around the configured tau
-    points: int = 17             # grid points, log-spaced
+    span: float = 6.0            # the grid covers tau / span .. tau x span around the configured tau (1.1 s: a
+    #                              D5R's 0.3-1.5 s lies two points inside, where a minimum counts)
+    points: int = 21             # grid points, log-spaced (ratio 1.2)
     highpass: float = 5.0        # s, first-order high-pass of angle, acceleration and reading (removes bias, zero)
     window: float = 15.0         # s, averaging time of the squared residuals
     contrast: float = 1.1        # mean square two grid points either side over the best one, to report the best
