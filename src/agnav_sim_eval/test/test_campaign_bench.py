@@ -48,3 +48,27 @@ def test_outages_are_found_in_the_fixes_and_scored_on_their_own():
     assert abs(row["after_floor_cm"] - 16.0) < 1e-9 and abs(row["after_over_bound"] - 3.0 / 16.0) < 1e-9
     (row,) = outage_rows(series, truth, outages(fix_t, 0.0, 80.0), (fix_t, np.full_like(fix_t, 0.02)))
     assert abs(row["after_over_bound"] - 3.0 / RECOVERY_CM) < 1e-9  # a good receiver: the 10 cm of issue 15
+
+
+def test_the_accelerometer_bias_reads_as_the_roll_the_limits_name():
+    """campaign_limits: parked, the accelerometer's gravity (in base_link) tilts by the true roll plus the bias's
+    roll equivalent that run_limits reports for the run (tuning seed 102: MEMS IMU, a straight)."""
+    import numpy as np
+    from agnav_sim_eval.bench.campaign_limits import run_limits
+    from agnav_sim_eval.sim.random_scenarios import draw
+    from agnav_sim_eval.sim.simulator import TractorSimulator
+    scenario, params = draw(102)
+    sim = TractorSimulator(scenario, 102)
+    limits = run_limits(sim, params)
+    assert params["sensor_set"] == "mems" and not limits["turns"]
+    forces, rolls = [], []
+    while sim.t < 3.0:  # parked for the first 5-15 s of every run
+        for kind, _, data in sim.step():
+            if kind == "imu":
+                forces.append(sim.mounts["imu_link"].rot @ data["accel"])
+            elif kind == "truth":
+                rolls.append(data["roll"])
+    f = np.mean(forces, axis=0)
+    apparent = math.degrees(math.atan2(f[1], f[2]))
+    assert abs(apparent - math.degrees(np.mean(rolls)) - limits["accel_roll_deg"]) < 0.02
+    assert abs(limits["accel_roll_deg"]) > 0.3  # the run's roll error cannot be smaller on its straight

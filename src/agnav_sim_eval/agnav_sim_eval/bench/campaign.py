@@ -29,7 +29,7 @@ import numpy as np
 import yaml
 
 from agnav_bringup.graph_config import load_config
-from agnav_sim_eval.bench import docs_option, report
+from agnav_sim_eval.bench import campaign_limits, docs_option, report
 from agnav_sim_eval.bench.campaign_score import RECOVERY_CM, RECOVERY_S, score_run, static_transforms
 from agnav_sim_eval.bench.realdata import replay
 
@@ -81,6 +81,7 @@ def run_one(seed, drive_s, out_dir):
         bag, out = Path(out_dir) / f"seed{seed}", Path(out_dir) / f"seed{seed}_out"
         sim = TractorSimulator(scenario, seed)
         record(sim, bag, overwrite=True)
+        row["limits"] = campaign_limits.run_limits(sim, params)
         row["duration_s"] = sim.t
         row["sim_wall_s"] = time.perf_counter() - start
         row["replay_wall_s"] = replay(config_for(params["sensor_set"], bag, out_dir), bag, out)
@@ -153,6 +154,8 @@ def markdown(res):
     for a in res["acceptance"]:
         lines.append(f"| {a['label']} | {_f(a['value'], '.3f')} | {a['op']} {a['limit']} | "
                      f"{'yes' if a['pass'] else '**no**'} |")
+    lines += ["", "Observability (campaign_limits.py: what no filter can know on a route without turns):", "",
+              *campaign_limits.markdown_lines(rows)]
     lines += ["", f"Worst {WORST} runs (failed first, then horizontal RMS / floor):", "",
               "| seed | config | horizontal RMS / floor cm | roll / pitch / heading RMS deg | within 3σ | drawn |",
               "|---|---|---|---|---|---|"]
