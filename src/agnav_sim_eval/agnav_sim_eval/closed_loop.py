@@ -149,6 +149,9 @@ def run(settings: ClosedLoopSettings) -> ClosedLoopResult:
                     line = GuidanceLine(odo.x, odo.y, line.yaw)
                 start = score_line.error(truth["x"], truth["y"], truth["yaw"], 0.0).along_track
                 engaged_at = sim.travelled
+        drive = sim.driver.params
+        if sim.driver.length - sim.travelled <= drive.speed_mps ** 2 / (2 * drive.accel_mps2):
+            break  # the route's final braking: the run is over (the watchdog's stop at low speed is no fault)
         if start is not None and not watchdog.engaged:
             reason = watchdog.transitions[-1].reason
             break

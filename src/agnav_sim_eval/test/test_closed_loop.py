@@ -17,6 +17,13 @@ def test_rtk_fast_run_stays_on_line():
     assert not np.allclose(tilt.cross_track, tilt.estimated)
 
 
+def test_the_routes_final_stop_ends_the_run_without_a_disengage():
+    """An auto distance longer than the route: the run ends where the driver brakes for the route's end (the
+    watchdog's low-speed disengage there is the stop, not a fault)."""
+    r = run(ClosedLoopSettings(seed=3, controller="pid", auto_distance=1000.0, **RTK))
+    assert r.disengaged is None and 80.0 <= r.along[-1] < 1000.0
+
+
 def test_converges_from_offset_line():
     r = run(ClosedLoopSettings(seed=4, controller="stanley", line_offset=0.5, auto_distance=60.0, **RTK))
     assert abs(r.cross_track[0]) == pytest.approx(0.5, abs=0.1)
