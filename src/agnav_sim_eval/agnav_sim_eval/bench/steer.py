@@ -181,11 +181,12 @@ def table(r):
     for b in r["controllers"][rtk]["rtk_tilt"]["budget"]:
         lines.append(f"| {b['seed']} | {b['rms_cm']:.2f} | {b['estimate_rms_cm']:.2f} / {b['estimate_mean_cm']:+.2f} | "
                      f"{b['tracking_rms_cm']:.2f} | {b['gnss_lateral_rms_cm']:.2f} / {b['gnss_lateral_mean_cm']:+.2f} |")
-    engaged = r["controllers"][rtk]["rtk_tilt"]["engaged_at_m"]
+    engaged, scored = (r["controllers"][rtk]["rtk_tilt"][k] for k in ("engaged_at_m", "distance_m"))
     lines += ["", "Reproduce: `agnav bench steer --json --write-docs docs/benchmarks/steer.md [--seeds N]`.",
               "RTK start as the thesis' operator: 3 m manual from standstill, then the engage request; the steering "
               "node's engage gate (position std <= 5 cm, yaw std <= 0.01 rad) grants it at "
-              f"{engaged:.1f} m travelled (mean), 150 m are scored on the scenario's 170 m route. The cold-started "
+              f"{engaged:.1f} m travelled (mean); {scored:.0f} m are scored (mean, at most 150 m: up to the braking "
+              "for the end of the scenario's 170 m route). The cold-started "
               "NavSensorModule takes its heading from the 3 m chord between moving fixes (module default "
               "heading_init_speed 0.3 m/s) and its lever-arm velocity from rates averaged over 0.2 s, so the former "
               "40 m drive at >= 3 m/s on a 230 m route is gone. One setting stays in "
