@@ -57,7 +57,7 @@ class NavSensorModuleSettings:
     wheel_timeout: float = 0.5                # s, an older wheel speed is not fused
     lever_rate_window: float = 0.1            # s of body rates averaged (centred) for the antenna lever velocity
     lever_rate_sigma: float = 0.02            # rad/s, error of that rate at the receiver's velocity epoch (sway)
-    lever_accel_tau: float = 0.1              # s, low-pass of the angular acceleration (gyro differences) in the
+    lever_accel_tau: float = 0.05             # s, low-pass of the angular acceleration (gyro differences) in the
     #                                           tilt sensor's lever-arm acceleration: sway passes, differentiated noise not
     path_pitch_speed: float = 1.0             # m/s: faster, the GNSS climb over the ground speed is the pitch (agnav)
     path_pitch_sigma: float = 0.015           # rad, body pitch off the path's over 1 s of fixes (sway, terrain waves)
