@@ -83,7 +83,7 @@ class AttitudeKF:
             # coloured errors (correlated over the lag): as white noise of the same low-frequency density
             coloured = accel_var + lag_miss ** 2 + (s.scale_sigma * incl) ** 2
             r = s.incl_noise ** 2 + coloured * 2.0 * max(tau, dt) / max(dt, 1e-3)
-            x, p = self._update_lagged(x, p, incl - self._acc_lag, r)
+            x, p = self._update(x, p, incl - self._acc_lag, r, 2)
         self._x, self._p = x, p
         if self.log is not None:
             F = np.array([[1.0, -dt, 0.0], [0.0, 1.0, 0.0], [a, 0.0, 1.0 - a]])
@@ -104,32 +104,23 @@ class AttitudeKF:
         x0, x1, x2 = x
         return (x0 - dt * x1 + rate * dt, x1, a * x0 + b * x2), (q00, q01, q02, p11 + s.bias_walk ** 2 * dt, q12, q22)
 
-    def _update_lagged(self, x, p, z, r):
-        """The reading z (variance r) of the lagged angle, gated (a refused reading is counted)."""
+    def _update(self, x, p, z, r, j):
+        """The reading z (variance r) of state j (0 angle, 2 lagged angle), gated (a refused reading is counted)."""
         p00, p01, p02, p11, p12, p22 = p
-        S = p22 + r
-        y = z - x[2]
+        c0, c1, c2 = (p00, p01, p02) if j == 0 else (p02, p12, p22)  # P's column j
+        S = c2 + r if j else c0 + r
+        y = z - x[j]
         if y * y / S > self.settings.gate:
             self.rejected += 1
             return x, p
-        k0, k1, k2 = p02 / S, p12 / S, p22 / S
+        k0, k1, k2 = c0 / S, c1 / S, c2 / S
         return ((x[0] + k0 * y, x[1] + k1 * y, x[2] + k2 * y),
-                (p00 - k0 * p02, p01 - k0 * p12, p02 - k0 * p22, p11 - k1 * p12, p12 - k1 * p22, p22 - k2 * p22))
+                (p00 - k0 * c0, p01 - k0 * c1, p02 - k0 * c2, p11 - k1 * c1, p12 - k1 * c2, p22 - k2 * c2))
 
     def observe(self, angle, var):
         """A direct reading of the angle (variance var, rad^2), gated like the inclinometer's."""
-        if self._x is None:
-            return
-        p00, p01, p02, p11, p12, p22 = self._p
-        S = p00 + var
-        y = angle - self._x[0]
-        if y * y / S > self.settings.gate:
-            self.rejected += 1
-            return
-        k0, k1, k2 = p00 / S, p01 / S, p02 / S
-        x = self._x
-        self._x = (x[0] + k0 * y, x[1] + k1 * y, x[2] + k2 * y)
-        self._p = (p00 - k0 * p00, p01 - k0 * p01, p02 - k0 * p02, p11 - k1 * p01, p12 - k1 * p02, p22 - k2 * p02)
+        if self._x is not None:
+            self._x, self._p = self._update(self._x, self._p, angle, var, 0)
 
     def checkpoint(self):
         """Keep a gyro-only copy from here (at a GNSS epoch that confirmed the acceleration compensation)."""
