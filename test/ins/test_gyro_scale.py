@@ -26,7 +26,7 @@ def field():
 def _run(field, sigma):
     traj, g, a, gnss = field
     s = InsEkfSettings(lever_gnss_frd=LEVER, initial_heading=1.0, initial_heading_sigma=math.radians(5.0),
-                       error=em.ErrorModelSettings(gyro_scale_sigma=sigma))
+                       error=em.ErrorModelSettings(gyro_scale_sigma=sigma), mount_yaw_sigma=0.0)   # IMU squared
     ekf = InsEkf(s)
     return ekf, sy.run_ins(ekf, traj, g, a, gnss)
 

@@ -64,3 +64,16 @@ def test_velocity_gyro_bias_columns():
         x[em.BG.start + i] = 1e-4
         true = m.linearize(_snap(mech, OMEGA - x[em.BG]), mech.state.alpha, g, em.N_STATES)
         np.testing.assert_allclose(lin.z - true.z, lin.h @ x, atol=1e-10)
+
+
+def test_position_mount_yaw_column():
+    """Body axes turned by δm off base_link's (yaw mount state): the lever, measured on base_link, is R_z(δm) l on
+    the body axes; the column is z(lever l) - z(lever R_z(δm) l) per δm."""
+    mech, g = _setup()
+    n, dm = em.N_INS, 1e-4
+    lin = GnssPosition(LEVER).linearize(_snap(mech), mech.state.alpha, g, n)
+    turned = np.array([LEVER[0] - dm * LEVER[1], LEVER[1] + dm * LEVER[0], LEVER[2]])
+    true = GnssPosition(turned).linearize(_snap(mech), mech.state.alpha, g, n)
+    scale = np.array([6.4e6, 6.4e6, 1.0])
+    np.testing.assert_allclose((lin.z - true.z) * scale, lin.h[:, em.MOUNT_YAW] * dm * scale, atol=1e-7)
+    assert np.abs(lin.h[:, em.MOUNT_YAW] * scale).max() > 1.0

@@ -137,9 +137,11 @@ def solution_ref(ekf):
     tx, ty, c = p[em.TX, em.TX], p[em.TY, em.TY], p[em.TX, em.TY]
     tilt = 0.5 * (tx + ty) + math.hypot(0.5 * (tx - ty), c)
     roll, pitch, yaw_c = quaternion.euler(c_bc)
+    g, m_ = em.GAMMA, em.MOUNT_YAW          # base_link's heading error: -(γ + δm)
+    heading_var = p[g, g] + p[m_, m_] + 2.0 * p[g, m_]
     return NavSolution(ekf.t, lat, st.lon, st.h, cn @ (T @ st.v), roll, pitch,
                        math.remainder(yaw_c - alpha, 2.0 * math.pi), ekf.omega_b.copy(), cn @ c_bc, pos,
-                       m @ p[v3] @ m.T, np.array([tilt, tilt, p[em.GAMMA, em.GAMMA]]), np.diag(p)[em.BG].copy(),
+                       m @ p[v3] @ m.T, np.array([tilt, tilt, heading_var]), np.diag(p)[em.BG].copy(),
                        ekf.crab, p[em.N_STATES, em.N_STATES])
 
 
@@ -232,7 +234,7 @@ def test_dynamics_matches_the_term_form(trial):
 
 def _ekf_with_random_state():
     ekf = InsEkf(InsEkfSettings(lever_gnss_frd=(0.3, -0.1, -1.5), lever_base_frd=(-0.5, 0.0, 1.0)))
-    ekf.adopt(Mechanization(random_state()), random_spd(17), crab=0.01, t=12.5, omega_b=RNG.normal(0, 0.1, 3))
+    ekf.adopt(Mechanization(random_state()), random_spd(em.N_INS), crab=0.01, t=12.5, omega_b=RNG.normal(0, 0.1, 3))
     ekf.fix_drift_cov = random_spd(3)
     return ekf
 
@@ -417,6 +419,8 @@ def nhc_linearize_ref(nhc, c_b_cbar, v_c, omega_b, crab, n_states):
     j[:, em.BG] = -skew(nhc.lever)
     h = np.stack([j[1] - crab * j[0], j[2]])
     h[0, em.N_STATES] = -v_b[0]
+    if n_states > em.MOUNT_YAW:
+        h[0, em.MOUNT_YAW] = v_b[0]
     extra = (nhc.s.speed_sigma_gain * abs(v_b[0])) ** 2
     r = np.diag([nhc.s.lateral_sigma ** 2 + extra, nhc.s.vertical_sigma ** 2 + extra])
     return np.array([v_b[1] - v_b[0] * crab, v_b[2]]), h, r
@@ -451,6 +455,8 @@ def position_rows_ref(lever, snap, alpha, gnss, n_states, heading_var):
     dd[:2, em.GAMMA] = d[1], -d[0]
     dd[:2, em.BETA] = -d[:2]
     dd[:, em.TX], dd[:, em.TY] = np.cross(d, cn[:, 0]), -np.cross(d, cn[:, 1])
+    if n_states > em.MOUNT_YAW:             # the lever on the body axes is R_z(δm) l
+        dd[:, em.MOUNT_YAW] = -snap.c_b_ned @ np.cross([0.0, 0.0, 1.0], lever)
     scale = np.diag([1.0 / (rn + snap.h), 1.0 / (rm + snap.h)])
     h[:2] += a.T @ scale @ dd[[1, 0]]
     h[2] -= dd[2]

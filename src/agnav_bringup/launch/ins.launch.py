@@ -35,7 +35,7 @@ def generate_launch_description():
                  'initial_yaw_sigma': 0.0,
                  'gnss_timeout': 1.5,
                  'mount_tilt_sigma': 0.001745,
-                 'mount_yaw_sigma': 0.008727,
+                 'ekf.mount_yaw_sigma': 0.008727,
                  'ekf.gate_probability': 0.9999,
                  'ekf.align_speed': 0.5,
                  'ekf.nhc.enabled': True,

@@ -39,9 +39,6 @@ class InsNavSettings:
     imu_overdue_periods: float = 20.0      # IMU periods without a sample at a GNSS epoch: imu_overdue (diagnostics)
     mount_tilt_sigma: float = math.radians(0.1)   # rad, IMU roll/pitch mount error beyond TF (bracket levelled by
                                            # hand): unobservable (the filter levels the IMU), added to roll/pitch var
-    mount_yaw_sigma: float = math.radians(0.5)    # rad, IMU yaw mount error beyond TF (bracket squared to the vehicle
-                                           # axis by eye, +-1 deg): the antenna lever in turns heads the IMU, the NHC
-                                           # on straights the vehicle; unmodelled, added to the yaw variance
     heading_valid_sigma: float = math.radians(1.5)  # rad: nothing is published before the yaw sigma (mount's included)
                                            # is below this once (an outage's growing sigma later stays published)
     ekf: InsEkfSettings = field(default_factory=InsEkfSettings)
@@ -81,7 +78,6 @@ class InsNavigation:
         """base_link -> gnss_link and -> imu_link translations (base_link FLU, m); starts the filter."""
         self.mounts = Mounts.from_tf(imu_lever, np.eye(3), gnss_lever)
         self.mounts.tilt_var = self.settings.mount_tilt_sigma ** 2
-        self.mounts.yaw_var = self.settings.mount_yaw_sigma ** 2
         self.settings.ekf.lever_gnss_frd = tuple(self.mounts.lever_gnss_frd)
         self.settings.ekf.lever_base_frd = tuple(-self.mounts.lever_imu_frd)
         self.ekf = InsEkf(self.settings.ekf)

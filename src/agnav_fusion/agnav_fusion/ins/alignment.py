@@ -86,4 +86,4 @@ def initial_variances(s, g, heading_var, crab=True, gyro_bias_var=None):
     else:
         var[em.GAMMA], var[em.BETA] = heading_var, heading_var ** 2 / 2
     return np.append(var, (s.nhc.crab_var(0.0) if crab else 0.0, s.error.gyro_scale_sigma ** 2,
-                           s.wheel.scale_sigma ** 2))
+                           s.wheel.scale_sigma ** 2, s.mount_yaw_sigma ** 2))

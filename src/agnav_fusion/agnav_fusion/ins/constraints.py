@@ -23,6 +23,7 @@ from .mechanization import T, skew
 
 CRAB = em.CRAB              # index of the augmented crab state (rad, + body velocity to the right, FRD)
 WHEEL = em.WHEEL_SCALE      # index of the wheel speed's scale error
+MOUNT = em.MOUNT_YAW        # index of the IMU yaw mount error (the body axes' turn off base_link's, + right)
 
 
 @dataclass
@@ -123,6 +124,8 @@ class NonHolonomic:
         h[cols] = [a - crab * b for a, b in zip(j1, j0)]
         h[n_states + cols] = j2
         h[CRAB] = -vb0
+        if n_states > MOUNT:    # body axes turned by δm: base_link's lateral velocity is vb1 - δm vb0
+            h[MOUNT] = vb0
         extra = (self.s.speed_sigma_gain * abs(vb0)) ** 2
         r = np.diag([self.s.lateral_sigma ** 2 + extra, self.s.vertical_sigma ** 2 + extra])
         return Linearized(self.name, np.array([vb1 - vb0 * crab, vb2]), h.reshape(2, n_states), r)

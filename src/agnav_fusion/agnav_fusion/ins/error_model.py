@@ -17,9 +17,9 @@ BA = slice(8, 11)
 BG = slice(11, 14)
 GAMMA, BETA = 14, 15
 N_STATES = 16
-CRAB, GYRO_SCALE, WHEEL_SCALE = 16, 17, 18  # augmented (ekf): crab (constraints), z gyro scale-factor error [-],
-#                                             wheel speed scale error [-] (constraints.WheelSpeed)
-N_INS = 19
+CRAB, GYRO_SCALE, WHEEL_SCALE, MOUNT_YAW = 16, 17, 18, 19  # augmented (ekf): crab (constraints), z gyro scale-factor
+#                   error [-], wheel speed scale error [-] (constraints.WheelSpeed), IMU yaw mount error [rad] (ekf)
+N_INS = 20
 V3 = (VX, VY, VZ)
 
 
@@ -49,6 +49,13 @@ class ErrorModelSettings:
         u[BG] = 2.0 * self.gyro_bias_sigma ** 2 / self.gyro_bias_tau
         u[BETA] = 1e-12
         return u
+
+
+def vehicle_heading_var(p):
+    """Variance of base_link's heading from P: the body axes' (γ, true - computed) and their turn off base_link's
+    (the yaw mount state, computed - true) both subtract from it."""
+    g, m = GAMMA, MOUNT_YAW
+    return p.item(g, g) + p.item(m, m) + 2.0 * p.item(g, m) if len(p) > m else p.item(g, g)
 
 
 def dynamics(settings, v, f_c, rho, omega, c_b_c, lat, h, alpha):

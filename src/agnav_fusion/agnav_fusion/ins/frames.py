@@ -30,7 +30,6 @@ class Mounts:
     lever_gnss_frd: np.ndarray
     lever_imu_frd: np.ndarray
     tilt_var: float = 0.0     # rad^2, IMU roll/pitch mount error beyond TF: the filter levels the IMU, not base_link
-    yaw_var: float = 0.0      # rad^2, IMU yaw mount error beyond TF: the antenna lever in turns heads the IMU
 
     @classmethod
     def from_tf(cls, imu_xyz, imu_rotation, gnss_xyz):
@@ -135,7 +134,7 @@ def base_link_state(sol, mounts, plane, rate_var=(0.0, 0.0, 0.0)):
     c = sol.c_b_ned.tolist()
     (c0, c1, c2), (c3, c4, c5), (c6, c7, c8) = c
     att = sol.att_var.tolist()
-    att = [att[0] + mounts.tilt_var, att[1] + mounts.tilt_var, att[2] + mounts.yaw_var]
+    att = [att[0] + mounts.tilt_var, att[1] + mounts.tilt_var, att[2]]
     position, velocity, pose3 = _moved(sol.lat, sol.lon, sol.h, c, sol.v_ned.tolist(), sol.omega_b.tolist(), mounts,
                                        plane, sol.pos_cov_enu.tolist(), att)
     # velocity covariance: R^T V R, R = NED_TO_ENU C diag(FRD) (base_link FLU -> ENU)
@@ -168,7 +167,7 @@ def ekf_base_link_state(ekf, mounts, plane, rate_var=(0.0, 0.0, 0.0)):
     d = p.diagonal().tolist()        # Python floats: numpy scalars cost more in every operation below
     pos = ((f00 + (b00 * a00 + b01 * a01), f01 + (b00 * a10 + b01 * a11), f02),
            (f10 + (b10 * a00 + b11 * a01), f11 + (b10 * a10 + b11 * a11), f12), (f20, f21, f22 + d[em.H]))
-    tx, ty, txy, tc = d[em.TX], d[em.TY], p.item(em.TX, em.TY), d[em.GAMMA] + mounts.yaw_var
+    tx, ty, txy, tc = d[em.TX], d[em.TY], p.item(em.TX, em.TY), em.vehicle_heading_var(p)
     ta = 0.5 * (tx + ty) + math.hypot(0.5 * (tx - ty), txy) + mounts.tilt_var   # largest C-axis tilt + mount
     position, velocity, pose3 = _moved(lat, lon, h, c_ned, (ca * v0 - sa * v1, -sa * v0 - ca * v1, -v2),
                                        (w0, w1, w2), mounts, plane, pos, (ta, ta, tc))

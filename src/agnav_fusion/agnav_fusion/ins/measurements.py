@@ -103,6 +103,11 @@ class GnssPosition:
                                   1.0, -r_x + (-sa * b0[0] + ca * b1[0]), r_y + (-sa * b0[1] + ca * b1[1]),
                                   -sa * b0[2] + ca * b1[2], -sa * b0[3] + ca * b1[3],
                                   1.0, -(-(d0 * sa) - d1 * ca), d0 * ca - d1 * sa)
+        if n_states > em.MOUNT_YAW:      # body axes turned by δm off base_link's: the lever is R_z(δm) l there
+            n0, n1, n2 = c1 * l0 - c0 * l1, c4 * l0 - c3 * l1, c7 * l0 - c6 * l1          # C (z x l), NED
+            m = em.MOUNT_YAW
+            h[m], h[n_states + m] = -(ca * s0 * n1 + sa * s1 * n0), sa * s0 * n1 - ca * s1 * n0
+            h[2 * n_states + m] = n2
         # R: a^T diag(s) (P_en + heading_var |d_en|^2 I) diag(s) a (see above)
         (p00, p01, _), (p10, p11, _), (_, _, p22) = gnss.pos_cov_enu.tolist()
         extra = heading_var * (d0 * d0 + d1 * d1)

@@ -16,6 +16,9 @@ class InsEkfSettings:
     error: em.ErrorModelSettings = field(default_factory=em.ErrorModelSettings)
     lever_gnss_frd: tuple = (0.0, 0.0, 0.0)    # IMU -> antenna in body FRD [m]
     lever_base_frd: tuple = (0.0, 0.0, 0.0)    # IMU -> base_link (non-holonomic point) in body FRD [m]
+    mount_yaw_sigma: float = math.radians(0.5)  # rad, IMU yaw mount error beyond TF (bracket squared to the vehicle
+                                               # axis by eye, +-1 deg): estimated (the lever arms and the NHC head
+                                               # the vehicle, the accelerometers the IMU); this is its initial sigma
     nhc: NhcSettings = field(default_factory=NhcSettings)
     wheel: WheelSettings = field(default_factory=WheelSettings)   # wheel or radar speed, when present
     standstill: StandstillSettings = field(default_factory=StandstillSettings)  # gyro bias before the alignment

@@ -51,7 +51,7 @@ def solution_parts(ekf):
     bg = em.BG.start
     return (ekf.t, lat, st.lon, h, (ca * v0 - sa * v1, -sa * v0 - ca * v1, -v2), math.atan2(c7, c8),
             -math.asin(max(-1.0, min(1.0, c6))), math.remainder(math.atan2(c3, c0) - alpha, TWO_PI),
-            ekf.omega_b.tolist(), c_b_ned, pos, vel, (tilt, tilt, p[em.GAMMA, em.GAMMA]),
+            ekf.omega_b.tolist(), c_b_ned, pos, vel, (tilt, tilt, em.vehicle_heading_var(p)),
             (p[bg, bg], p[bg + 1, bg + 1], p[bg + 2, bg + 2]), ekf.crab,
             p[CRAB, CRAB] if ekf.nhc is not None else math.inf)
 
