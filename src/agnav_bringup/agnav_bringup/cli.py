@@ -11,7 +11,7 @@ COMMANDS = {
     "bench": (None, "agnav bench NAME [--json]: run a benchmark (see `agnav bench --list`)"),
     "sim": ("agnav_sim_eval.sim.cli", "simulate a scenario into a bag"),
     "eval": ("agnav_sim_eval.evaluate", "score a recorded output against ground truth"),
-    "calibrate": ("agnav_sim_eval.calibrate", "tilt-sensor zeros from a recorded park / turn round / park drive"),
+    "calibrate": ("agnav_sim_eval.calibrate", "tilt-sensor zeros and IMU level from a park / turn round / park drive"),
     "recover": (None, "agnav recover DIR: finish a recording whose run was killed (keeps every flushed chunk)"),
 }
 

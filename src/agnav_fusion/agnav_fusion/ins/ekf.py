@@ -8,8 +8,8 @@ Joseph-form update with closed-loop correction, outage coasting and health stati
 straight runs and bounds outage drift; an augmented z gyro scale-factor state, learnt in turns, keeps a U-turn from
 leaving its heading error (0.5 % of 180° is 0.9°); a wheel speed with an augmented scale state holds the speed in
 outages; an augmented IMU yaw mount error (the bracket's turn beyond TF) rotates the IMU samples onto the vehicle
-axes (the accelerometers head the IMU, the lever arms and the NHC the vehicle); fix-difference velocities only seed the in-motion alignment (they lag and repeat the fixes); a filter whose
-fixes stay rejected re-aligns from them.
+axes (the accelerometers head the IMU, the lever arms and the NHC the vehicle); fix-difference velocities only seed
+the in-motion alignment (they lag and repeat the fixes); a filter whose fixes stay rejected re-aligns from them.
 """
 import copy
 import math
