@@ -35,7 +35,7 @@ class NhcSettings:
     lateral_sigma: float = 0.05              # m/s, white lateral velocity of base_link (sway, steering)
     vertical_sigma: float = 0.08             # m/s, white vertical velocity of base_link (bumps)
     speed_sigma_gain: float = 0.02           # extra sigma per m/s of speed (both axes: rougher when faster)
-    crab_sigma: float = math.radians(0.5)    # rad, steady crab on level ground
+    crab_sigma: float = 0.0065               # rad (0.37 deg), crab spread on level ground (a steady one reads as yaw mount)
     crab_roll_mean: float = 0.2              # expected crab per sin(roll) (downhill): weight over the tyres' cornering
                                              # stiffness, 3-8 per rad on soil -> 0.12-0.33
     crab_roll_gain: float = 0.15             # rad of crab sigma per rad of roll (spread of that slide)
