@@ -174,7 +174,7 @@ def sim_case(name, seed):
 def markdown(res, eval_line=None):
     lines = ["# GNSS/INS (wander azimuth, 16-state EKF) benchmark", "",
              "Reproduce: `agnav bench ins --json --write-docs docs/benchmarks/ins.md --synthetic` (seed %d). The module docstring of "
-             "`agnav_bringup/bench/ins.py` describes the runs; `src/agnav_drivers/agnav_drivers/sim/scenarios.py` "
+             "`agnav_sim_eval/bench/ins.py` describes the runs; `src/agnav_sim_eval/agnav_sim_eval/sim/scenarios.py` "
              "(`mems_field`) the consumer MEMS IMU and receivers." % res["seed"], "",
              "## Simulated field runs: INS vs the thesis' navigation sensor module (same runs)", "",
              "INS heading guess off by 180° (unknown). Accuracy of base_link over the common window (INS aligned and "
@@ -193,12 +193,13 @@ def markdown(res, eval_line=None):
     lines += ["", "INS innovation statistics (mean NIS, 3 dof each, ≈3 when consistent): " + ", ".join(
         f"{r['scenario']} position {r['ins']['nis_position']:.2f} / velocity {r['ins']['nis_velocity']:.2f}"
         for r in res.get("sim", []))]
-    lines += ["", "Reading: the module's drift and DGPS alignment profit from its ground-vehicle model (dead reckoning "
-              "along the body x axis with the last speed, heading from the GNSS course); the INS is free-inertial "
-              "in outages (MEMS accelerometer bias: drift grows with the square of the outage length) and observes "
-              "heading only through accelerations (U-turns), so its DGPS alignment is slow and its common window "
-              "short. A non-holonomic pseudo-measurement (zero lateral/vertical body velocity) as a further "
-              "pluggable model is the expected remedy for both; not implemented yet. The module rows depend on "
+    lines += ["", "Reading: the INS rows drive `InsEkf` directly (this bench's lever and the filter's defaults), "
+              "the module rows the shipped nsm pipeline (`bench.module_runs`), to compare the filters on the same "
+              "samples; what the shipped ins graph reaches on independent runs is `agnav bench campaign` (and "
+              "`agnav bench ins_fast` for the thesis' fast run). The INS's "
+              "non-holonomic constraint (with its crab, z gyro scale and IMU yaw mount states) gives it the "
+              "ground-vehicle model the module has: heading from the GNSS course on straight runs, a fast in-motion "
+              "alignment and dead reckoning along the body x axis in outages. The module rows depend on "
               "`agnav_fusion.nav_sensor_module` at the time of the run."]
     if eval_line:
         lines += ["", "## Node graph on the bag", "",
