@@ -51,7 +51,7 @@ def _run(tilt_var, mount_yaw_sigma=InsEkfSettings.mount_yaw_sigma):
                math.remainder(b.rpy[2] - (math.pi / 2 - heading[k + 1]), 2 * math.pi))
         z.append([abs(e) / math.sqrt(b.pose_cov[i, i]) for e, i in zip(err, (3, 4, 5))])
         yaw_err.append(err[2])
-    return np.mean(np.array(z) <= 3.0, axis=0), math.sqrt(np.mean(np.square(yaw_err))), ekf.mount_yaw
+    return np.mean(np.array(z) <= 3.0, axis=0), math.sqrt(np.mean(np.square(yaw_err))), ekf.mount.yaw
 
 
 def test_mount_error_is_in_the_published_attitude_variance():

@@ -7,9 +7,8 @@ Joseph-form update with closed-loop correction, outage coasting and health stati
 [IMPL] A non-holonomic constraint with an augmented crab state (`constraints`) makes the heading observable on
 straight runs and bounds outage drift; an augmented z gyro scale-factor state, learnt in turns, keeps a U-turn from
 leaving its heading error (0.5 % of 180° is 0.9°); a wheel speed with an augmented scale state holds the speed in
-outages; an augmented IMU yaw mount error (the bracket's turn beyond TF) rotates the IMU samples onto the vehicle
-axes (the accelerometers head the IMU, the lever arms and the NHC the vehicle); fix-difference velocities only seed
-the in-motion alignment (they lag and repeat the fixes); a filter whose fixes stay rejected re-aligns from them.
+outages; an augmented IMU yaw mount (`mount`) turns the samples onto the vehicle axes; fix-difference velocities
+only seed the in-motion alignment (they lag and repeat the fixes); a filter whose fixes stay rejected re-aligns.
 """
 import copy
 import math
@@ -19,12 +18,13 @@ import numpy as np
 
 from agnav_fusion import kalman
 
-from . import chi2, earth, error_model as em, feedback, quaternion
+from . import chi2, earth, error_model as em, feedback
 from .constraints import CRAB, MOUNT, WHEEL, NonHolonomic, WheelSpeed
 from .history import ImuPeriod, SolutionHistory
 from .alignment import FixTrack, initial_state, initial_variances
 from .measurements import GnssPosition, GnssVelocity
-from .mechanization import Mechanization, _floats, mat3, rotation_rows
+from .mechanization import Mechanization, _floats
+from .mount import YawMount
 from .standstill import StandstillBias
 from .settings import InsEkfSettings, NavSolution  # noqa: F401 (re-exported)
 from .solution import filter_health, nav_solution
@@ -49,7 +49,7 @@ class InsEkf:
         self.wheel_scale, self._wheel = 0.0, None   # a wheel reads (1 + scale) x speed; (t, speed, var) to fuse
         self.crab = 0.0
         self._crab_mean = 0.0             # the roll-driven mean the crab state deviates from (propagate_covariance)
-        self.mount_yaw, self._mount_cs = 0.0, (1.0, 0.0)   # rad; the IMU samples are turned by it onto base_link
+        self.mount = YawMount()           # the IMU's yaw mount estimate: the samples are turned by it
         self._nhc_t = -math.inf
         self.models = [GnssPosition(self.s.lever_gnss_frd), GnssVelocity(self.s.lever_gnss_frd)]
         self.t = None
@@ -169,9 +169,7 @@ class InsEkf:
 
     def solution(self):
         """Current IMU-point NavSolution, or None before initialisation."""
-        if self.mech is None:
-            return None
-        return nav_solution(self)
+        return None if self.mech is None else nav_solution(self)
 
     def add_wheel(self, t, speed, var):
         """A wheel or radar speed (m/s, variance; <= 0: unknown) at t: fused at the next IMU sample."""
@@ -184,7 +182,7 @@ class InsEkf:
     def step(self, t, gyro_frd, accel_frd):
         """Mechanization only, up to t (no covariance, constraint or GNSS processing)."""
         dt, self.t = t - self.t, t
-        self._mechanize(np.asarray(gyro_frd, dtype=float), np.asarray(accel_frd, dtype=float), dt)
+        self._mechanize(gyro_frd, accel_frd, dt)
         return dt
 
     def propagate_covariance(self, p, dt, q_extra=()):
@@ -217,20 +215,12 @@ class InsEkf:
         feedback.apply(self.mech, x[:em.N_STATES])
         self.mech.gyro_scale += float(x[em.GYRO_SCALE])
         self.wheel_scale -= float(x[WHEEL])
-        self._turn_mount(float(x[MOUNT]))
+        self.mount.correct(self.mech.state, float(x[MOUNT]))
         if self.nhc is not None:
             self.crab -= x[CRAB]
         p = feedback.azimuth_reset(p, x[em.GAMMA], x[em.BETA])
         p[em.BETA, em.BETA] = 0.5 * p[em.GAMMA, em.GAMMA] ** 2 + 1e-12
         return 0.5 * (p + p.T)
-
-    def _turn_mount(self, dm):
-        """Mount yaw estimate minus dm: the body axes the samples are turned onto move with it (C_B^Cbar R_z(dm))."""
-        if dm:
-            st = self.mech.state
-            st.q = quaternion.from_dcm(mat3(st.dcm_rows(), rotation_rows(0.0, 0.0, dm)))
-            self.mount_yaw -= dm
-            self._mount_cs = (math.cos(self.mount_yaw), math.sin(self.mount_yaw))
 
     def gated(self, lin, p=None):
         """True (and counted) if the linearised observation's innovation passes the chi-square gate under P."""
@@ -248,25 +238,21 @@ class InsEkf:
         time, rate and yaw mount."""
         self._propagate_covariance()
         return {"mech": copy.deepcopy(self.mech), "p": self.p.copy(), "crab": self.crab, "t": self.t,
-                "omega_b": self.omega_b.copy(), "mount_yaw": self.mount_yaw}
+                "omega_b": self.omega_b.copy(), "mount_yaw": self.mount.yaw}
 
     def adopt(self, mech, p, crab=0.0, t=None, omega_b=None, mount_yaw=0.0):
         """Take over an INS state (e.g. export_state() of a tightly coupled filter's INS): P's first n_states
         rows/columns (a 16x16 P gets the crab's steady variance and the scale's initial one); the solution history
         restarts here."""
         self.mech, self.crab, self.t = mech, crab, t
-        self.mount_yaw, self._mount_cs = mount_yaw, (math.cos(mount_yaw), math.sin(mount_yaw))
+        self.mount.set(mount_yaw)
         k = min(len(p), em.N_INS)
         self.p = np.zeros((em.N_INS, em.N_INS))
         self.p[:k, :k] = np.asarray(p)[:k, :k]
-        if k <= CRAB and self.nhc is not None:
-            self.p[CRAB, CRAB] = self.s.nhc.crab_var(mech.state.euler()[0])
-        if k <= em.GYRO_SCALE:
-            self.p[em.GYRO_SCALE, em.GYRO_SCALE] = self.s.error.gyro_scale_sigma ** 2
-        if k <= WHEEL:
-            self.p[WHEEL, WHEEL] = self.s.wheel.scale_sigma ** 2
-        if k <= MOUNT:
-            self.p[MOUNT, MOUNT] = self.s.mount_yaw_sigma ** 2
+        augmented = (self.s.nhc.crab_var(mech.state.euler()[0]) if self.nhc else 0.0,    # CRAB .. MOUNT
+                     self.s.error.gyro_scale_sigma ** 2, self.s.wheel.scale_sigma ** 2, self.s.mount_yaw_sigma ** 2)
+        for i in range(max(k, CRAB), em.N_INS):     # the states a shorter P lacks: their initial variances
+            self.p[i, i] = augmented[i - CRAB]
         self._crab_mean = self.s.nhc.crab_mean(mech.state.euler()[0], self.heading_sigma()) if self.nhc else 0.0
         self.omega_b = np.zeros(3) if omega_b is None else np.array(omega_b, dtype=float)
         self._f, self._cov_dt, self._gap_var, self._pending, self._corr = None, 0.0, None, [], np.zeros(6)
@@ -317,11 +303,7 @@ class InsEkf:
             self._vehicle_update(nhc)
 
     def _mechanize(self, gyro, accel, dt):
-        c, s = self._mount_cs
-        if s:           # the IMU sample on the estimated vehicle axes
-            (g0, g1, g2), (a0, a1, a2) = _floats(gyro), _floats(accel)
-            gyro, accel = (c * g0 - s * g1, s * g0 + c * g1, g2), (c * a0 - s * a1, s * a0 + c * a1, a2)
-        self._f = self.mech.step(gyro, accel, dt)
+        self._f = self.mech.step(*self.mount.turn(gyro, accel), dt)
         self.omega_b = np.array(self.mech.rate)     # gyro - bias; a new array each time (the history keeps it)
 
     def _propagate_covariance(self):
