@@ -12,30 +12,23 @@ import json
 import math
 import sys
 from dataclasses import asdict
-from pathlib import Path
 
 import numpy as np
 
 from scipy.spatial.transform import Rotation
 
+from agnav_sim_eval.bench.campaign_score import static_transforms
 from agnav_sim_eval.evaluate import read_bag
-from agnav_common.bagio import typestore
-from agnav_common.frames import euler_from_quaternion, rotation_matrix
+from agnav_common.frames import rotation_matrix
 from agnav_fusion.pipeline import accelerometer_tilt
 from agnav_fusion.tilt_calibration import TiltCalibration
 
 
 def mount(path, child):
     """base_link -> child translation and rotation matrix from the bag's /tf_static (zero, identity when absent)."""
-    from rosbags.highlevel import AnyReader
-
-    with AnyReader([Path(path)], default_typestore=typestore()) as reader:
-        conns = [c for c in reader.connections if c.topic == "/tf_static"]
-        for conn, _, raw in reader.messages(connections=conns):
-            for tf in reader.deserialize(raw, conn.msgtype).transforms:
-                if tf.child_frame_id == child:
-                    q, v = tf.transform.rotation, tf.transform.translation
-                    return (v.x, v.y, v.z), rotation_matrix(*euler_from_quaternion(q.x, q.y, q.z, q.w))
+    for tf in static_transforms(path):
+        if tf["child"] == child:
+            return tuple(tf["xyz"]), rotation_matrix(*tf["rpy"])
     return (0.0, 0.0, 0.0), np.eye(3)
 
 
