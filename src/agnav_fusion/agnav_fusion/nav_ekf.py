@@ -44,7 +44,7 @@ class NavEKFSettings:
     accel_bias_sigma: float = 0.1  # m/s^2, initial accelerometer bias (MEMS zero-g offset + pitch error)
     crab_sigma: float = 0.009      # rad, crab (side-slip) spread the roll model leaves (0.5 deg: draft, toe-in)
     crab_tau: float = 30.0         # s, crab correlation time (slope and soil change slowly)
-    crab_roll_gain: float = 0.0    # crab per sin(roll) (rad): expected downhill slide, the learnt gain's prior
+    crab_roll_gain: float = 0.2    # crab per sin(roll) (rad): expected downhill slide, the learnt gain's prior
     crab_gain_sigma: float = 0.3   # rad, spread of that gain (soil, tyres, load)
     crab_gain_walk: float = 0.002  # rad/sqrt(s), change of that gain (soil)
     crab_roll_tau: float = 3.0     # s, lag from the estimated roll to the terrain roll driving the crab (no sway)
