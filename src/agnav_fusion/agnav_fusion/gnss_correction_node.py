@@ -47,7 +47,7 @@ class GnssCorrectionNode(Node):
         self.base_frame, self.gnss_frame = s.base_frame, s.gnss_frame
         self.max_attitude_age, self.attitude_wait = s.max_attitude_age, s.attitude_wait
         self.tf = TfBuffer(self)
-        # (t, heading, pitch nose-up, roll, variances) thesis conventions; 30 s at 100 Hz: a fix delivered seconds
+        # (t, quaternion xyzw, roll/pitch/yaw variances); 30 s at 100 Hz: a fix delivered seconds
         # late (across processes DDS may resend a sample at its next heartbeat) still finds its epoch
         self.attitudes = deque(maxlen=3000)
         self.clock = StreamClock()
@@ -75,12 +75,13 @@ class GnssCorrectionNode(Node):
                                                                               for k, v in recent.items()})
 
     def on_odom(self, msg):
+        """Keeps the stamp, quaternion and attitude variances (Euler angles only for the ~1 Hz fixes' epochs)."""
         q, c = msg.pose.pose.orientation, msg.pose.covariance
-        roll, pitch, yaw = euler_from_quaternion(q.x, q.y, q.z, q.w)
-        if math.isfinite(roll) and math.isfinite(pitch) and math.isfinite(yaw):
-            self.attitudes.append((to_sec(msg.header.stamp), float(heading_from_yaw(yaw)), -pitch, roll,
-                                   (c[21], c[28], c[35])))
-            self.correct_pending()
+        quat = (q.x, q.y, q.z, q.w)
+        if all(map(math.isfinite, quat)):
+            self.attitudes.append((to_sec(msg.header.stamp), quat, (c[21], c[28], c[35])))
+            if self.pending:
+                self.correct_pending()
 
     def on_fix(self, msg):
         t = to_sec(msg.header.stamp)
@@ -126,7 +127,9 @@ class GnssCorrectionNode(Node):
         if mount is None:
             self.count("no_tf")
             return
-        _, heading, pitch, roll, (v_roll, v_pitch, v_yaw) = att
+        _, quat, (v_roll, v_pitch, v_yaw) = att
+        roll, pitch, yaw = euler_from_quaternion(*quat)
+        heading, pitch = float(heading_from_yaw(yaw)), -pitch  # thesis conventions: heading, pitch nose-up
         lever = tilt_correction.lever_from_flu(mount[0])
         offset = tilt_correction.antenna_offset(lever, heading, pitch, roll)  # ENU, eq 4.23
         here = LocalTangentPlane(msg.latitude, msg.longitude, msg.altitude)
