@@ -29,6 +29,7 @@ def generate_launch_description():
                  'pitch_kf.tau': 0.05,
                  'fix_velocity_baseline': 2.0,
                  'ekf.slip_noise': 0.3,
+                 'ekf.crab_roll_gain': 0.0,
                  'gnss_timeout': 2.5,
              }, {'use_sim_time': use_sim_time}]),
         Node(package='agnav_fusion', executable='gnss_correction_node', name='gnss_correction', output='screen',
