@@ -4,7 +4,8 @@ import math
 import numpy as np
 
 from agnav_fusion import kalman
-from agnav_fusion.nav_ekf import IA, IB, IPHI, IV, NavEKF, NavEKFSettings
+from agnav_fusion.nav_ekf import IA, IB, IC, IK, IPHI, IR, IV, NavEKF, NavEKFSettings
+from agnav_fusion.tilt_correction import lever_from_flu, offset_heading_jacobian
 
 
 def straight_run(seed=3, seconds=60.0, rate=50.0, bias=0.004):
@@ -120,3 +121,31 @@ def test_coasting_does_not_extrapolate_an_unconfirmed_acceleration():
     s = NavEKFSettings()
     assert speed[False] > 0.9 * 0.04 * s.accel_tau and speed[True] < 1.1 * 0.04 * s.coast_accel_tau, speed
     assert math.sqrt(variance[True]) > 1.0, variance
+
+
+def test_a_position_reset_keeps_the_antenna_lever_tied_to_the_heading():
+    """A fix moved to base_link with the estimated heading carries that heading's error through the antenna lever.
+    Reset there with the lever's heading Jacobian, the position shares it: the antenna is uncorrelated with the
+    heading and crab, so a later fix (whatever its innovation) does not move the heading, which it does not observe
+    on its own. Without the Jacobian the same fix turned the heading (the steer bench's dgps_slope_crab start)."""
+    jac = offset_heading_jacobian(lever_from_flu((-1.67, 0.0, 3.23)), 0.3, 0.0, math.radians(5.0))
+    moved = {}
+    for with_jacobian in (True, False):
+        ekf = NavEKF(NavEKFSettings(crab_roll_gain=0.2))
+        ekf.initialise([0.0, 0.0], 4e-4 * np.eye(2), 0.3, 1.5)
+        ekf.x[IR] = math.radians(5.0)  # terrain roll: the crab model k sin(roll) is live
+        ekf.P[IPHI, IPHI] = math.radians(0.5) ** 2
+        # the course is known, the heading = course - crab (as the chord start sets it)
+        ekf.P[IPHI, IK] = ekf.P[IK, IPHI] = -ekf.P[IK, IK] * math.sin(ekf.x[IR])
+        R = 4e-4 * np.eye(2)
+        ekf.reset_position([0.0, 0.0], R, jac if with_jacobian else None)
+        P = ekf.P
+        antenna_heading = P[:2, IPHI] + jac * P[IPHI, IPHI]  # Cov(position + jac heading, heading)
+        if with_jacobian:
+            np.testing.assert_allclose(antenna_heading, 0.0, atol=1e-15)
+        before = ekf.x[[IPHI, IC, IK]].copy()
+        y, S, _, H = ekf.position_innovation([0.05, -0.12], R, jac)
+        ekf.update(y, S, H, R)
+        moved[with_jacobian] = np.abs(ekf.x[[IPHI, IC, IK]] - before)
+    assert np.all(moved[True] < 1e-12)
+    assert moved[False][0] > math.radians(0.2) and moved[False][2] > 0.05

@@ -297,16 +297,17 @@ class AgnavEstimator:
             self._fuse(ekf.speed_innovation(speed, vel_var, baseline / 2), gated=False)  # mean speed of the baseline
         antenna = xy + antenna_offset(m.lever, snap.heading, snap.pitch, snap.roll)[:2]
         chord = self.chord.add(m.lever, t, antenna, snap.raw_heading, snap.pitch, snap.roll, white)
+        jac = None
         if chord is not None:
             course, var, xy, mean_speed = chord
             self._set_course(course, var)
             self.heading_known = True
             if not doppler and ekf.P[IV, IV] > s.ekf.init_speed_sigma ** 2:  # the fixes' mean speed along the chord
                 ekf.x[IV], ekf.P[IV, IV] = mean_speed, max(ekf.P[IV, IV], s.ekf.init_speed_sigma ** 2)
-            R = (white + tilt_variance(m.lever, 0.0, 0.0, ekf.P[IPHI, IPHI])) * np.eye(2)
+            R, jac = white * np.eye(2), offset_heading_jacobian(m.lever, ekf.x[IPHI], snap.pitch, snap.roll)
         elif doppler and speed >= s.heading_init_speed:  # provisional: the course over ground
             self._set_course(math.atan2(*v_ref), s.ekf.init_heading_sigma ** 2)
-        ekf.reset_position(xy, R)
+        ekf.reset_position(xy, R, jac)
 
     def _forget_heading(self):
         """The heading is no longer known (diverged or reversed): nothing published until a new chord."""

@@ -153,13 +153,23 @@ class NavEKF:
     def course(self):
         return self.x[IPHI] + self.crab_jacobian() @ self.x[IC:IR]
 
-    def reset_position(self, xy, xy_cov):
-        """Re-initialise the position (a fix the gate kept refusing): the old position, and what it implied for the
-        other states, is forgotten."""
+    def reset_position(self, xy, xy_cov, lever_jacobian=None):
+        """Re-initialise the position (a fix the gate kept refusing, or the fix that starts the heading): the old
+        position, and what it implied for the other states, is forgotten. lever_jacobian: d(antenna offset)/d(heading)
+        of a fix moved to the reference point with the current heading, whose error it then shares (a later fix
+        must not read the antenna lever's placement as news about the heading)."""
         self.x[IX], self.x[IY] = xy
-        self.P[:2, :] = self.P[:, :2] = 0.0
-        self.P[:2, :2] = np.asarray(xy_cov) + self.gnss_bias_var * np.eye(2)
-        self.P[IX, IBX] = self.P[IBX, IX] = self.P[IY, IBY] = self.P[IBY, IY] = -self.gnss_bias_var
+        P = self.P
+        P[:2, :] = P[:, :2] = 0.0
+        P[:2, :2] = np.asarray(xy_cov) + self.gnss_bias_var * np.eye(2)
+        P[IX, IBX] = P[IBX, IX] = P[IY, IBY] = P[IBY, IY] = -self.gnss_bias_var
+        if lever_jacobian is not None:
+            j = np.asarray(lever_jacobian, dtype=float)
+            cross = -np.outer(j, P[IPHI])  # position error = -j x heading error (+ the fix's own)
+            cross[:, :2] = 0.0
+            P[:2, 2:] += cross[:, 2:]
+            P[2:, :2] += cross[:, 2:].T
+            P[:2, :2] += np.outer(j, j) * P[IPHI, IPHI]
 
     def _decay(self, dt, coasting):
         """(A, receiver bias, crab, terrain roll) Gauss-Markov factors over dt (cached: dt repeats)."""
