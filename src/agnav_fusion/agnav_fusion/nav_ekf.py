@@ -165,10 +165,9 @@ class NavEKF:
         P[IX, IBX] = P[IBX, IX] = P[IY, IBY] = P[IBY, IY] = -self.gnss_bias_var
         if lever_jacobian is not None:
             j = np.asarray(lever_jacobian, dtype=float)
-            cross = -np.outer(j, P[IPHI])  # position error = -j x heading error (+ the fix's own)
-            cross[:, :2] = 0.0
-            P[:2, 2:] += cross[:, 2:]
-            P[2:, :2] += cross[:, 2:].T
+            cross = -np.outer(j, P[IPHI, 2:])  # position error = -j x heading error (+ the fix's own)
+            P[:2, 2:] += cross
+            P[2:, :2] += cross.T
             P[:2, :2] += np.outer(j, j) * P[IPHI, IPHI]
 
     def _decay(self, dt, coasting):
