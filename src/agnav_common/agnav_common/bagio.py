@@ -313,3 +313,20 @@ def filter_bag(src, dst, keep):
         for c, t, raw in reader.messages():
             if keep(c.topic, t):
                 writer.write(out[c.id], t, raw)
+
+
+def static_transforms(bag):
+    """[{parent, child, xyz, rpy}] of the bag's /tf_static (the mounts a graph is given; the graph config's form)."""
+    from rosbags.highlevel import AnyReader
+
+    from agnav_common.frames import euler_from_quaternion
+
+    out = []
+    with AnyReader([Path(bag)], default_typestore=typestore()) as reader:
+        conns = [c for c in reader.connections if c.topic == "/tf_static"]
+        for conn, _, raw in reader.messages(connections=conns):
+            for t in reader.deserialize(raw, conn.msgtype).transforms:
+                tr, q = t.transform.translation, t.transform.rotation
+                out.append({"parent": t.header.frame_id, "child": t.child_frame_id, "xyz": [tr.x, tr.y, tr.z],
+                            "rpy": [float(a) for a in euler_from_quaternion(q.x, q.y, q.z, q.w)]})
+    return out

@@ -17,8 +17,8 @@ import numpy as np
 
 from scipy.spatial.transform import Rotation
 
-from agnav_sim_eval.bench.campaign_score import static_transforms
 from agnav_sim_eval.evaluate import read_bag
+from agnav_common.bagio import static_transforms
 from agnav_common.frames import rotation_matrix
 from agnav_fusion.pipeline import accelerometer_tilt
 from agnav_fusion.tilt_calibration import TiltCalibration

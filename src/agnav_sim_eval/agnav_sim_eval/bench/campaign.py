@@ -30,7 +30,8 @@ import yaml
 
 from agnav_bringup.graph_config import load_config
 from agnav_sim_eval.bench import campaign_limits, docs_option, report
-from agnav_sim_eval.bench.campaign_score import RECOVERY_CM, RECOVERY_S, score_run, static_transforms
+from agnav_common.bagio import static_transforms
+from agnav_sim_eval.bench.campaign_score import RECOVERY_CM, RECOVERY_S, score_run
 from agnav_sim_eval.bench.realdata import replay
 
 CONFIGS = {"thesis": "nsm", "mems": "ins"}

@@ -1,13 +1,11 @@
 """Scoring of one campaign run (helpers of `agnav bench campaign`, no command of its own): the recorded
 /odometry/filtered against the input bag's truth, against the run's receiver floor, and against its own covariance."""
 import math
-from pathlib import Path
 
 import numpy as np
-from rosbags.highlevel import AnyReader
 
-from agnav_common.bagio import typestore
-from agnav_common.frames import euler_from_quaternion, rotation_matrix
+from agnav_common.bagio import static_transforms
+from agnav_common.frames import rotation_matrix
 from agnav_common.geodesy import LocalTangentPlane
 from agnav_sim_eval.evaluate import error_series, evaluate_arrays, evaluate_bags, odometry_arrays, read_bag
 
@@ -17,19 +15,6 @@ RECOVERY_CM = 10.0  # ... or back to the receiver's own error there, where that 
 AXES = {"x": 0, "y": 7, "roll": 21, "pitch": 28, "yaw": 35}  # Odometry pose covariance diagonal
 SERIES_KEY = {"x": ("east", 0.01), "y": ("north", 0.01), "roll": ("roll", math.pi / 180), "pitch": ("pitch", math.pi / 180),
               "yaw": ("yaw", math.pi / 180)}  # error_series key and its unit in m / rad
-
-
-def static_transforms(bag):
-    """[{parent, child, xyz, rpy}] of the bag's /tf_static (the mounts the graph is given)."""
-    out = []
-    with AnyReader([Path(bag)], default_typestore=typestore()) as reader:
-        conns = [c for c in reader.connections if c.topic == "/tf_static"]
-        for conn, _, raw in reader.messages(connections=conns):
-            for t in reader.deserialize(raw, conn.msgtype).transforms:
-                tr, q = t.transform.translation, t.transform.rotation
-                out.append({"parent": t.header.frame_id, "child": t.child_frame_id, "xyz": [tr.x, tr.y, tr.z],
-                            "rpy": [float(a) for a in euler_from_quaternion(q.x, q.y, q.z, q.w)]})
-    return out
 
 
 def receiver_floor(bag, lever):
