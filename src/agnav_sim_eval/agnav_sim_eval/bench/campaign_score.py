@@ -4,7 +4,6 @@ import math
 
 import numpy as np
 
-from agnav_common.bagio import static_transforms
 from agnav_common.frames import rotation_matrix
 from agnav_common.geodesy import LocalTangentPlane
 from agnav_sim_eval.evaluate import error_series, evaluate_arrays, evaluate_bags, odometry_arrays, read_bag
