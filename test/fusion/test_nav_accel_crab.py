@@ -119,9 +119,7 @@ def test_the_first_published_heading_is_within_its_covariance():
 
 
 @pytest.mark.parametrize("accel", [pytest.param(True, marks=pytest.mark.xfail(
-    strict=True, reason="issue 15 open: accelerometer bias drift gives 3 m in 30 s")), pytest.param(False, marks=(
-        pytest.mark.xfail(strict=True, reason="issue 15 open: the speed model's 1 m/s in 30 s gives sigma 20 m for "
-                          "0.9 m of drift (the heading now stays valid through the outage, so the rows count)")))])
+    strict=True, reason="issue 15 open: accelerometer bias drift gives 3 m in 30 s")), False])
 def test_a_30_s_outage_drifts_little_and_honestly(accel):
     """0.8 m/s, fixes lost for 30 s: <= 1.5 m drift, error <= 3 sigma throughout, and the position is back within
     10 cm 10 s after the fixes return; sigma stays of the drift's size (not tens of metres)."""

@@ -108,8 +108,8 @@ def test_receiver_error_class_rise_restarts_the_bias():
 
 def test_coasting_does_not_extrapolate_an_unconfirmed_acceleration():
     """Fixes stop while the speed model holds a small acceleration (fix noise): coasting, it decays with
-    coast_accel_tau, so the speed stays near its last value; A keeps its stationary variance, and V's sigma after 30 s
-    still covers a stop from the speed held (1 m/s)."""
+    coast_accel_tau, so the speed stays near its last value; A keeps its stationary variance, and V's 3 sigma after
+    30 s still covers a stop from the speed held (1 m/s)."""
     speed, variance = {}, {}
     for coasting in (False, True):
         ekf = NavEKF()
@@ -120,7 +120,7 @@ def test_coasting_does_not_extrapolate_an_unconfirmed_acceleration():
         speed[coasting], variance[coasting] = ekf.x[IV] - 1.0, ekf.P[IV, IV]
     s = NavEKFSettings()
     assert speed[False] > 0.9 * 0.04 * s.accel_tau and speed[True] < 1.1 * 0.04 * s.coast_accel_tau, speed
-    assert math.sqrt(variance[True]) > 1.0, variance
+    assert 3.0 * math.sqrt(variance[True]) > 1.0, variance
 
 
 def test_a_position_reset_keeps_the_antenna_lever_tied_to_the_heading():

@@ -121,6 +121,31 @@ def test_30s_outage_dead_reckons_with_growing_covariance_and_reconverges():
     assert not out[-1][1].dead_reckoning
 
 
+def test_coasting_starts_once_a_fix_is_overdue():
+    """1 Hz fixes, 0.1 s latency: the speed model coasts (no acceleration extrapolated) from one fix period plus
+    coast_margin after the last fix epoch, not only at gnss_timeout, and never while fixes arrive on time."""
+    coasting_at, now = [], [0.0]
+
+    def spy(nsm):
+        imu, predict = nsm.imu, nsm.estimator.ekf.predict
+
+        def timed_imu(t, gyro):
+            now[0] = t
+            return imu(t, gyro)
+
+        def watched_predict(rate, dt, accel=None, roll=0.0, coasting=False):
+            if coasting:
+                coasting_at.append(now[0])
+            return predict(rate, dt, accel, roll, coasting)
+        nsm.imu, nsm.estimator.ekf.predict = timed_imu, watched_predict
+
+    nsm, _ = drive(seconds=60.0, outage=((45.0, 55.0),), on_start=spy)
+    assert 1.0 + nsm.settings.coast_margin < nsm.settings.gnss_timeout
+    # the last fix before the outage has epoch 44 s
+    assert min(coasting_at) == pytest.approx(44.0 + 1.0 + nsm.settings.coast_margin, abs=0.03)
+    assert 55.0 < max(coasting_at) < 60.0  # the fixes back (once the module takes them again)
+
+
 def test_wheel_speed_carries_a_speed_change_through_an_outage():
     """Accelerating from 1 to 2 m/s without fixes: the GNSS-only module keeps the old speed, a wheel speed (1 %
     scale error) keeps the dead reckoning within a metre over ~75 m."""

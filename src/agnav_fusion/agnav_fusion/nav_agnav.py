@@ -40,6 +40,7 @@ class AgnavEstimator:
         self.still = False         # the latest fix says the vehicle stands still
         self.fix_speed = None      # (epoch, EKF speed after the fix): the fixes' own acceleration
         self.last_fix_t = math.inf  # epoch of the latest fix, accepted or not
+        self.fix_period = math.inf  # s between the latest two fix epochs
         self.path_pitch_t = -math.inf
         self.recent_fixes = deque()  # (epoch, tilt-corrected xy) of the fixes of the last still_baseline s
         self.accel_miss = 0.0      # m/s^2, acceleration the speed model missed before the latest fix
@@ -73,7 +74,8 @@ class AgnavEstimator:
             along = min(max(float(force[0]) - GRAVITY * math.sin(pitch) - lever_acc[0], -s.max_accel), s.max_accel)
         self.ekf.set_accel_mode(along is not None)
         if self.ekf.x is not None:
-            self.propagate(rate_cw, dt, self.still, wheel, along, roll or 0.0, t - self.last_fix_t > s.gnss_timeout)
+            coasting = t - self.last_fix_t > min(s.gnss_timeout, self.fix_period + s.coast_margin)
+            self.propagate(rate_cw, dt, self.still, wheel, along, roll or 0.0, coasting)
             heading, nav = self.ekf.x[IPHI], (self.ekf.x.copy(), self.ekf.P.copy())
         else:
             heading, nav = self.raw_heading, None
@@ -83,7 +85,7 @@ class AgnavEstimator:
         """EKF prediction with the yaw rate (and the along-track acceleration `along`, roll for the crab model);
         standing still, the gyro reading is its bias (zero-rate update); a wheel speed (speed, variance) measures V.
         An IMU gap is bridged in steps of max_dt with the yaw rate and acceleration it may have hidden added as
-        noise. coasting: no fix for gnss_timeout s."""
+        noise. coasting: a fix is overdue (coast_margin s after the fix period, at most gnss_timeout s)."""
         s, ekf = self.m.settings, self.ekf
         if dt > s.max_dt:
             n = math.ceil(dt / s.max_dt)
@@ -153,6 +155,8 @@ class AgnavEstimator:
         self.accel_miss = self._check_speed_model(k, t, speed, check_var, doppler, baseline)
         accepted = self._fuse_fix(k, t, xy, R, v_ref, vel_var, speed, was_still and not self.still, doppler,
                                   differenced)
+        if t > self.last_fix_t:
+            self.fix_period = t - self.last_fix_t
         self.last_fix_t = t
         return accepted
 

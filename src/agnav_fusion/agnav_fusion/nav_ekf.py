@@ -36,7 +36,7 @@ class NavEKFSettings:
     bias_walk: float = 1.0e-4      # rad/s/sqrt(s) yaw-gyro bias random walk
     jerk_noise: float = 0.05       # m/s^3/sqrt(Hz) longitudinal jerk (no accelerometer)
     accel_tau: float = 6.0         # s, longitudinal acceleration is Gauss-Markov (starts and stops last seconds)
-    coast_accel_tau: float = 2.0   # s, its correlation time once the fixes stop (coasting): an acceleration the fixes
+    coast_accel_tau: float = 0.5   # s, its correlation time once a fix is overdue (coasting): an acceleration the fixes
     #                                no longer confirm is not extrapolated through an outage
     speed_walk: float = 0.02       # m/s/sqrt(s) speed random walk (throttle, load, wheel slip changes)
     accel_noise: float = 0.1       # m/s^2/sqrt(Hz) along-track accelerometer: vibration and sway residuals
