@@ -106,6 +106,25 @@ def test_receiver_error_class_rise_restarts_the_bias():
     assert run(restart=True) < 3.0 < run(restart=False)
 
 
+def test_an_overdue_fix_forgets_the_acceleration_the_fixes_gave():
+    """forget_acceleration: A back to its prior (0, stationary variance, uncorrelated); V keeps what it knew. In
+    accelerometer mode A is the accelerometer's bias, which the IMU keeps measuring: left alone."""
+    ekf = NavEKF()
+    ekf.initialise([0.0, 0.0], 1e-4 * np.eye(2), 0.0, 1.0)
+    ekf.x[IA], ekf.P[IA, IV] = 0.04, 1e-3
+    ekf.P[IV, IA] = 1e-3
+    speed, speed_var = ekf.x[IV], ekf.P[IV, IV]
+    ekf.forget_acceleration()
+    s = ekf.settings
+    assert ekf.x[IA] == 0.0 and ekf.P[IA, IA] == s.jerk_noise ** 2 * s.accel_tau / 2.0
+    assert not np.any(np.delete(ekf.P[IA], IA)) and not np.any(np.delete(ekf.P[:, IA], IA))
+    assert ekf.x[IV] == speed and ekf.P[IV, IV] == speed_var
+    ekf.set_accel_mode(True)
+    ekf.x[IA] = 0.02
+    ekf.forget_acceleration()
+    assert ekf.x[IA] == 0.02
+
+
 def test_coasting_does_not_extrapolate_an_unconfirmed_acceleration():
     """Fixes stop while the speed model holds a small acceleration (fix noise): coasting, it decays with
     coast_accel_tau, so the speed stays near its last value; A keeps its stationary variance, and V's 3 sigma after

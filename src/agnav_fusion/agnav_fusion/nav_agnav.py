@@ -41,6 +41,7 @@ class AgnavEstimator:
         self.fix_speed = None      # (epoch, EKF speed after the fix): the fixes' own acceleration
         self.last_fix_t = math.inf  # epoch of the latest fix, accepted or not
         self.fix_period = math.inf  # s between the latest two fix epochs
+        self.coasting = False      # a fix is overdue (fix_period + coast_margin): the speed model coasts
         self.path_pitch_t = -math.inf
         self.recent_fixes = deque()  # (epoch, tilt-corrected xy) of the fixes of the last still_baseline s
         self.accel_miss = 0.0      # m/s^2, acceleration the speed model missed before the latest fix
@@ -75,6 +76,9 @@ class AgnavEstimator:
         self.ekf.set_accel_mode(along is not None)
         if self.ekf.x is not None:
             coasting = t - self.last_fix_t > min(s.gnss_timeout, self.fix_period + s.coast_margin)
+            if coasting and not self.coasting:
+                self.ekf.forget_acceleration()
+            self.coasting = coasting
             self.propagate(rate_cw, dt, self.still, wheel, along, roll or 0.0, coasting)
             heading, nav = self.ekf.x[IPHI], (self.ekf.x.copy(), self.ekf.P.copy())
         else:

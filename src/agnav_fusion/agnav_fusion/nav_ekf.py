@@ -36,8 +36,8 @@ class NavEKFSettings:
     bias_walk: float = 1.0e-4      # rad/s/sqrt(s) yaw-gyro bias random walk
     jerk_noise: float = 0.05       # m/s^3/sqrt(Hz) longitudinal jerk (no accelerometer)
     accel_tau: float = 6.0         # s, longitudinal acceleration is Gauss-Markov (starts and stops last seconds)
-    coast_accel_tau: float = 0.5   # s, its correlation time once a fix is overdue (coasting): an acceleration the fixes
-    #                                no longer confirm is not extrapolated through an outage
+    coast_accel_tau: float = 2.0   # s, its correlation time once a fix is overdue (coasting), which forgets the
+    #                                acceleration the fixes no longer confirm (no extrapolation through an outage)
     speed_walk: float = 0.02       # m/s/sqrt(s) speed random walk (throttle, load, wheel slip changes)
     accel_noise: float = 0.1       # m/s^2/sqrt(Hz) along-track accelerometer: vibration and sway residuals
     accel_bias_walk: float = 0.005  # m/s^2/sqrt(s) accelerometer bias + gravity-compensation (pitch) error walk
@@ -118,9 +118,13 @@ class NavEKF:
         self.accel_mode = on
         self._decay_key = None
         if self.x is not None:
-            self.x[IA] = 0.0
-            self.P[IA, :] = self.P[:, IA] = 0.0
-            self.P[IA, IA] = self.settings.accel_bias_sigma ** 2 if on else 0.5 ** 2
+            self._restart_a(self.settings.accel_bias_sigma ** 2 if on else 0.5 ** 2)
+
+    def _restart_a(self, variance):
+        """A from scratch: mean 0, this variance, uncorrelated with the other states."""
+        self.x[IA] = 0.0
+        self.P[IA, :] = self.P[:, IA] = 0.0
+        self.P[IA, IA] = variance
 
     def crab_jacobian(self):
         """d crab / d (beta, k)."""
@@ -169,6 +173,12 @@ class NavEKF:
             P[:2, 2:] += cross
             P[2:, :2] += cross.T
             P[:2, :2] += np.outer(j, j) * P[IPHI, IPHI]
+
+    def forget_acceleration(self):
+        """A fix is overdue: the acceleration estimated from the fixes (mostly their noise at a steady speed) is not
+        extrapolated; A returns to its prior (mean 0, stationary variance, uncorrelated). No-op with an accelerometer."""
+        if self.x is not None and not self.accel_mode:
+            self._restart_a(self.settings.jerk_noise ** 2 * self.settings.accel_tau / 2.0)
 
     def _decay(self, dt, coasting):
         """(A, receiver bias, crab, terrain roll) Gauss-Markov factors over dt (cached: dt repeats)."""

@@ -73,8 +73,8 @@ class NavSensorModuleSettings:
     incl_timeout: float = 0.5                 # s, older inclinometer data is stale (gyro-only attitude)
     untracked_tilt_sigma: float = 0.035       # rad, roll/pitch uncertainty while no tilt sensor reports (2°: field)
     gnss_timeout: float = 2.5                 # s without an accepted fix -> dead reckoning
-    coast_margin: float = 0.5                 # s a fix may be late (latency, jitter): then the acceleration the
-    #                                           fixes confirmed decays with ekf.coast_accel_tau (no extrapolation)
+    coast_margin: float = 0.5                 # s a fix may be late (latency, jitter): then the speed model
+    #                                           coasts and forgets the acceleration the fixes confirmed
     max_dt: float = 0.5                       # s, a longer IMU gap is counted and bridged in steps of this length
     gap_periods: float = 3.0                  # IMU sample periods: a longer spacing is counted as a gap
     gap_rate_sigma: float = 0.1               # rad/s, unknown yaw-rate change across an IMU gap
