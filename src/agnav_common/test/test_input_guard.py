@@ -22,6 +22,18 @@ def test_a_real_jump_is_accepted_once_confirmed():
     assert clock.last == 20.2
 
 
+def test_a_jump_the_reference_clock_vouches_for_is_taken_at_once():
+    """A receiver back after a 20 s outage, its stamps on the IMU clock: no fix is held back for confirmation. Without
+    a lead bound the reference does not vouch for the future, and a jump waits for its confirmation as before."""
+    clock = StreamClock(StreamClockSettings(max_jump=1.0, max_lead=0.5))
+    assert clock.check(10.0, ref=10.1) is None
+    assert clock.check(30.0, ref=30.1) is None and clock.last == 30.0
+    assert clock.check(1000.0, ref=30.2) == "stamp_off_reference"
+    unbounded = StreamClock(StreamClockSettings(max_jump=1.0, confirm=2))
+    assert unbounded.check(10.0, ref=10.1) is None
+    assert [unbounded.check(t, ref=t) for t in (30.0, 30.1, 30.2)] == ["future_stamp", "future_stamp", None]
+
+
 def test_bad_backwards_and_off_reference_stamps():
     clock = StreamClock(StreamClockSettings(max_lag=2.0, max_lead=0.5))
     assert clock.check(0.0) == "bad_stamp"
