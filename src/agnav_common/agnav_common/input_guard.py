@@ -7,8 +7,8 @@ Time rules (one `StreamClock` per input stream):
   stream's time only when `confirm` further stamps follow it consistently (a sensor back after a real gap or a
   restarted clock); a lone future outlier is thus rejected and never moves the clock;
 - optionally a stamp is checked against a reference time (e.g. the IMU clock for a GNSS fix): it may lag by up to
-  `max_lag` s and lead by up to `max_lead` s; with a finite `max_lead` a stamp that passes this check is taken at
-  once after a jump too (the reference vouches for it: a receiver back after an outage loses no fixes).
+  `max_lag` s and lead by up to `max_lead` s; with `vouch` and a finite `max_lead` a stamp that passes this check is
+  taken at once after a jump too (the reference vouches for it: a receiver back after an outage loses no fixes).
 Covariance rules (`covariance`): NaN/Inf or negative variances, or a matrix that is not positive semi-definite
 after symmetrisation, are rejected; variances below a floor (zero) are raised to it and reported as floored.
 """
@@ -40,6 +40,7 @@ class StreamClockSettings:
     confirm: int = 3          # consistent stamps after a jump that make it the stream's new time
     max_lag: float = math.inf   # s a stamp may lie behind the reference time
     max_lead: float = math.inf  # s a stamp may lie ahead of the reference time
+    vouch: bool = False       # a jump within max_lead of the reference is taken at once (no confirmation)
 
 
 class StreamClock:
@@ -58,7 +59,7 @@ class StreamClock:
             return "stamp_off_reference"
         if self.last is not None and t <= self.last:
             return "backwards_stamp"
-        if self.last is None or t - self.last <= s.max_jump or (ref is not None and s.max_lead < math.inf):
+        if self.last is None or t - self.last <= s.max_jump or (s.vouch and ref is not None and s.max_lead < math.inf):
             self.last = t
             self._candidate.clear()
             return None

@@ -37,7 +37,8 @@ class InputGuard:
         self.settings = s = settings or InputGuardSettings()
         clock = StreamClockSettings(max_jump=s.max_stamp_jump)
         self.clocks = {k: StreamClock(clock) for k in STREAMS}
-        self.clocks["gnss"] = StreamClock(StreamClockSettings(max_jump=s.max_stamp_jump, max_lead=s.gnss_max_lead))
+        self.clocks["gnss"] = StreamClock(StreamClockSettings(max_jump=s.max_stamp_jump, max_lead=s.gnss_max_lead,
+                                                              vouch=True))
         self.clocks.update({k: StreamClock(c) for k, c in (clocks or {}).items()})
         self.totals = {}
         self.events = EventWindow(s.diagnostic_window)
