@@ -40,8 +40,8 @@ class AgnavEstimator:
         self.still = False         # the latest fix says the vehicle stands still
         self.fix_speed = None      # (epoch, EKF speed after the fix): the fixes' own acceleration
         self.last_fix_t = math.inf  # epoch of the latest fix, accepted or not
-        self.fix_period = math.inf  # s between the latest two fix epochs
-        self.coasting = False      # a fix is overdue (fix_period + coast_margin): the speed model coasts
+        self.coast_after = s.gnss_timeout  # s after last_fix_t the next fix is overdue (its period + coast_margin)
+        self.coasting = False      # a fix is overdue: the speed model coasts
         self.path_pitch_t = -math.inf
         self.recent_fixes = deque()  # (epoch, tilt-corrected xy) of the fixes of the last still_baseline s
         self.accel_miss = 0.0      # m/s^2, acceleration the speed model missed before the latest fix
@@ -75,7 +75,7 @@ class AgnavEstimator:
             along = min(max(float(force[0]) - GRAVITY * math.sin(pitch) - lever_acc[0], -s.max_accel), s.max_accel)
         self.ekf.set_accel_mode(along is not None)
         if self.ekf.x is not None:
-            coasting = t - self.last_fix_t > min(s.gnss_timeout, self.fix_period + s.coast_margin)
+            coasting = t - self.last_fix_t > self.coast_after
             if coasting and not self.coasting:
                 self.ekf.forget_acceleration()
             self.coasting = coasting
@@ -160,7 +160,7 @@ class AgnavEstimator:
         accepted = self._fuse_fix(k, t, xy, R, v_ref, vel_var, speed, was_still and not self.still, doppler,
                                   differenced)
         if t > self.last_fix_t:
-            self.fix_period = t - self.last_fix_t
+            self.coast_after = min(self.m.settings.gnss_timeout, t - self.last_fix_t + self.m.settings.coast_margin)
         self.last_fix_t = t
         return accepted
 
