@@ -220,3 +220,14 @@ def test_crab_mean_slides_downhill_once_aligned():
     assert s.crab_mean(-math.radians(6.0)) < 0.0                                                # left side down
     assert s.crab_mean(math.radians(6.0), heading_sigma=math.radians(20.0)) == 0.0              # still aligning
 
+
+
+def test_the_crab_follows_the_terrain_roll_not_the_sway():
+    """The slide's roll is the estimate through crab_roll_tau: a 2 deg, 1 Hz sway on level ground leaves it near 0
+    (the old instantaneous roll swung the crab's mean by 0.4 deg), a 5 deg cross slope reaches it."""
+    nhc, dt = NonHolonomic(NhcSettings(), LEVER_BASE), 0.05
+    sway = [nhc.terrain_roll(math.radians(2.0) * math.sin(2 * math.pi * k * dt), dt) for k in range(400)]
+    assert math.degrees(np.abs(sway[100:]).max()) < 0.15
+    nhc.roll_lag = 0.0                                    # level, then onto the slope
+    slope = [nhc.terrain_roll(math.radians(5.0), dt) for _ in range(400)]
+    assert slope[19] < math.radians(2.5) and slope[-1] == pytest.approx(math.radians(5.0), rel=0.01)

@@ -43,7 +43,7 @@ def _drive(still, vel=True, stand=10.0, seed=0):
 def test_bias_of_the_standing_stretch_within_its_sigma(vel):
     still = StandstillBias(StandstillSettings(), gyro_arw=NOISE * 0.1)
     _drive(still, vel=vel)
-    bias, var = still.estimate(LAT)
+    bias, var = still.estimate(LAT)[:2]
     err = np.array(bias) - BIAS
     assert np.all(np.abs(err) <= 3.0 * np.sqrt(var)), (np.degrees(err) * 3600, np.degrees(np.sqrt(var)) * 3600)
     assert np.all(np.degrees(np.abs(err)) * 3600 < 30.0)    # deg/h: the start's pitching left out
@@ -53,7 +53,7 @@ def test_start_pitching_is_dropped_even_when_the_fixes_see_it_late():
     """A radius the start stays inside for a while: the trailing samples that disagree with the median go."""
     still = StandstillBias(StandstillSettings(radius=0.15, guard=0.0), gyro_arw=NOISE * 0.1)
     _drive(still, vel=False)
-    bias, _ = still.estimate(LAT)
+    bias = still.estimate(LAT).bias
     assert abs(bias[1] - BIAS[1]) < math.radians(30.0 / 3600)
 
 
@@ -82,3 +82,15 @@ def test_published_once_the_heading_is_known_and_then_through_an_outage():
     first = valid.index(True)
     assert first > 0 and math.sqrt(states[first].pose_cov[5, 5]) <= pipeline.backend.settings.heading_valid_sigma
     assert all(valid[first:]) and any(s.dead_reckoning for s in states[first:])
+
+
+def test_the_standing_level_is_carried_by_the_gyros_through_the_start():
+    """_drive's start pitches the vehicle up 2 deg while accelerating at 0.5 m/s^2: the standing level carried by
+    the bias-corrected gyros ends at the true attitude; the accelerometers there read 2.9 deg of acceleration."""
+    still = StandstillBias(StandstillSettings(), gyro_arw=NOISE * 0.1)
+    _drive(still)
+    roll, pitch = still.level(still.estimate(LAT))
+    assert abs(math.degrees(roll)) < 0.1 and abs(math.degrees(pitch) - 2.0) < 0.1     # gyro noise over 4 s
+    short = StandstillBias(StandstillSettings(carry=1.0), gyro_arw=NOISE * 0.1)
+    _drive(short)
+    assert short.level(short.estimate(LAT)) is None       # the samples since the stretch are gone

@@ -1,6 +1,7 @@
-"""Initial state of the GNSS/INS (SPEC §7.7, in-motion alignment): level from the accelerometers, position and
-velocity from a fix, heading from the guess or, when unknown, from the course over ground ([IMPL]: the antenna's
-lever-arm sway removed; fix-difference velocities from the INS's own fix track when the receiver gives none)."""
+"""Initial state of the GNSS/INS (SPEC §7.7, in-motion alignment): level from the accelerometers (standing, carried
+by the gyros, when a standing stretch was seen), position and velocity from a fix, heading from the guess or, when
+unknown, from the course over ground ([IMPL]: the antenna's lever-arm sway removed; fix-difference velocities from
+the INS's own fix track when the receiver gives none)."""
 import math
 from collections import deque
 
@@ -13,14 +14,17 @@ from .mechanization import InsState, roll_pitch_from_accel
 
 
 class FixTrack:
-    """Recent fixes; the velocity over the last `baseline` m (the mean of a lagging window: alignment only)."""
+    """Recent fixes; the velocity at the latest one from the mean velocities over the last `baseline` m (alignment
+    only): such a mean lags by half its span, so the last two means' acceleration carries it to the fix."""
 
     def __init__(self, baseline=2.0, window=20.0):
         self.baseline, self.window = baseline, window
         self._fixes = deque()
+        self._mean = None           # (mid time, ENU velocity, covariance) of the previous mean
 
     def velocity(self, g):
-        """Adds fix g; (ENU velocity, 3x3 covariance) from the latest earlier fix at least `baseline` away, or None."""
+        """Adds fix g; (ENU velocity, 3x3 covariance) at g from the latest earlier fix at least `baseline` away and
+        the previous such mean, or None."""
         rm, rn = earth.radii(g.lat)
 
         def enu_from(f):
@@ -34,15 +38,22 @@ class FixTrack:
         if base is None:
             return None
         dt = g.t - base[0].t
-        return base[1] / dt, (np.asarray(g.pos_cov_enu) + base[0].pos_cov_enu) / dt ** 2
+        mean = (g.t - dt / 2, base[1] / dt, (np.asarray(g.pos_cov_enu) + base[0].pos_cov_enu) / dt ** 2)
+        prev, self._mean = self._mean, mean
+        if prev is None or mean[0] - prev[0] < 1e-3:
+            return None
+        k = (g.t - mean[0]) / (mean[0] - prev[0])
+        step = k * (mean[1] - prev[1])       # constant acceleration; its size again as the margin for a change
+        return mean[1] + step, (1 + k) ** 2 * mean[2] + k ** 2 * prev[2] + np.diag(step ** 2)
 
 
-def initial_state(s, g, level, heading, heading_var, gyro_bias):
+def initial_state(s, g, level, heading, heading_var, gyro_bias, roll_pitch=None):
     """(InsState, heading variance) at fix g, or None to wait. s: InsEkfSettings; level: ((t, accel, gyro), ...) of
-    the last level_window s; heading_var >= 1: unknown (from the course once moving faster than align_speed)."""
+    the last level_window s; heading_var >= 1: unknown (from the course once moving faster than align_speed);
+    roll_pitch: the standing level carried here (else the mean of `level`'s specific force)."""
     if len(level) < 2:
         return None
-    roll, pitch = roll_pitch_from_accel(np.mean([a for _, a, _ in level], axis=0))
+    roll, pitch = roll_pitch or roll_pitch_from_accel(np.mean([a for _, a, _ in level], axis=0))
     lever = np.asarray(s.lever_gnss_frd, dtype=float)
     omega = min(level, key=lambda x: abs(x[0] - g.t))[2] - gyro_bias
     v_ned = np.zeros(3)

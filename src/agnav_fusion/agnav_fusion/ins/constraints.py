@@ -4,7 +4,8 @@ A wheeled vehicle's base_link (rear-axle centre on the ground) moves along its b
 velocity is speed x crab (side slip, sliding on cross slopes) and its vertical velocity is zero, each up to a
 white part (sway, bumps). The crab angle is an augmented Gauss-Markov error state about a roll-driven mean: a tractor
 on a cross slope slides downhill, never uphill, by about crab_roll_mean x sin(roll) (tyre side force m g sin(roll)
-over the cornering stiffness); its steady sigma grows with the roll (the slide's spread: soil, tyres, load). On a
+over the cornering stiffness), the roll being the terrain's (the estimate through a lag: sway rocks the body, it does
+not slide it); its steady sigma grows with that roll (the slide's spread: soil, tyres, load). On a
 straight line crab and heading are not separable from GNSS: without the mean the course offset goes into the heading.
 A wheel or radar speed reads base_link's body forward velocity times (1 + w), w its scale error (rolling radius,
 mean slip: an augmented random-walk state learnt while the fixes arrive, which then holds the speed in an outage).
@@ -39,6 +40,8 @@ class NhcSettings:
     crab_roll_mean: float = 0.2              # expected crab per sin(roll) (downhill): weight over the tyres' cornering
                                              # stiffness, 3-8 per rad on soil -> 0.12-0.33
     crab_roll_gain: float = 0.15             # rad of crab sigma per rad of roll (spread of that slide)
+    crab_roll_tau: float = 3.0               # s, lag from the estimated roll to the terrain roll driving the slide
+                                             # (the sway rocks the body without sliding it)
     crab_mean_heading_sigma: float = math.radians(5.0)  # rad, the slide's mean applies once the heading sigma is
                                              # below this (aligning: a course offset is mostly heading error)
     crab_tau: float = 20.0                   # s, crab correlation time
@@ -112,6 +115,13 @@ class NonHolonomic:
     def __init__(self, settings, lever_base_frd):
         self.s = settings
         self.lever = np.asarray(lever_base_frd, dtype=float)   # IMU -> base_link, body FRD [m]
+        self.roll_lag = None     # the terrain roll driving the crab (None: restart from the next roll)
+
+    def terrain_roll(self, roll, dt):
+        """The roll through a crab_roll_tau lag: the slope slides the vehicle, the sway only rocks it."""
+        lag = self.roll_lag
+        self.roll_lag = roll if lag is None else lag + min(dt / self.s.crab_roll_tau, 1.0) * (roll - lag)
+        return self.roll_lag
 
     def base_velocity(self, c_b_cbar, v_c, omega_b):
         """base_link velocity in body FRD from the C velocity of the IMU point."""

@@ -199,7 +199,7 @@ class InsEkf:
         phi[bgz, em.GYRO_SCALE], phi[em.GYRO_SCALE, em.GYRO_SCALE] = 0.0, 1.0
         if self.nhc is not None:
             (_, _, _), (_, _, _), (_, c7, c8) = st.dcm_rows()
-            a, roll = min(dt / self.s.nhc.crab_tau, 1.0), math.atan2(c7, c8)
+            a, roll = min(dt / self.s.nhc.crab_tau, 1.0), self.nhc.terrain_roll(math.atan2(c7, c8), dt)
             phi[CRAB, CRAB] = 1.0 - a
             mean = self.s.nhc.crab_mean(roll, self.heading_sigma())
             self.crab = mean + (1.0 - a) * (self.crab - self._crab_mean)
@@ -253,6 +253,8 @@ class InsEkf:
                      self.s.error.gyro_scale_sigma ** 2, self.s.wheel.scale_sigma ** 2, self.s.mount_yaw_sigma ** 2)
         for i in range(max(k, CRAB), em.N_INS):     # the states a shorter P lacks: their initial variances
             self.p[i, i] = augmented[i - CRAB]
+        if self.nhc:
+            self.nhc.roll_lag = None
         self._crab_mean = self.s.nhc.crab_mean(mech.state.euler()[0], self.heading_sigma()) if self.nhc else 0.0
         self.omega_b = np.zeros(3) if omega_b is None else np.array(omega_b, dtype=float)
         self._f, self._cov_dt, self._gap_var, self._pending, self._corr = None, 0.0, None, [], np.zeros(6)
@@ -276,15 +278,19 @@ class InsEkf:
 
     def _initialize(self, g, heading, heading_var):
         """Initial state at fix g (alignment.initial_state); False: not yet (standing with an unknown heading)."""
-        still = self._standstill.estimate(g.lat) if self.mech is None else None   # gyro bias learnt standing
-        bias = np.array(still[0]) if still else np.zeros(3)
-        init = initial_state(self.s, g, self._level, heading, heading_var, self.mech.gyro_bias if self.mech else bias)
+        still = self._standstill.estimate(g.lat) if self.mech is None else None   # gyro bias and level standing
+        bias = np.array(still.bias) if still else np.zeros(3)
+        level = self._standstill.level(still) if still else None
+        init = initial_state(self.s, g, self._level, heading, heading_var, self.mech.gyro_bias if self.mech else bias,
+                             level)
         if init is None:
             return False
         self.mech = Mechanization(init[0], gyro_bias=bias)
-        self.p = np.diag(initial_variances(self.s, g, init[1], self.nhc is not None, still[1] if still else None))
+        self.p = np.diag(initial_variances(self.s, g, init[1], self.nhc is not None, still.var if still else None))
         self.crab = self._crab_mean = 0.0
         self._f = None
+        if self.nhc:
+            self.nhc.roll_lag = None
         self._history.clear()
         self._snapshot()
         return True

@@ -24,7 +24,8 @@ class InsEkfSettings:
     standstill: StandstillSettings = field(default_factory=StandstillSettings)  # gyro bias before the alignment
     initial_heading: float = 0.0               # best guess, clockwise from north [rad]
     initial_heading_sigma: float = math.inf    # inf: unknown heading (γ/β span the full circle)
-    tilt_sigma: float = math.radians(2.0)      # rad, initial roll/pitch from accelerometers while driving
+    tilt_sigma: float = math.radians(2.0)      # rad, initial roll/pitch (the standing level, else accelerometers
+                                               # while driving)
     velocity_sigma: float = 0.1                # m/s, initial velocity (side-slip, speed noise)
     accel_bias_sigma0: float = 0.1             # m/s^2, initial accelerometer bias
     gyro_bias_sigma0: float = math.radians(0.2)  # rad/s, initial gyro bias

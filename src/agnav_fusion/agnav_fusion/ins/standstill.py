@@ -1,4 +1,4 @@
-"""Gyro bias learnt standing still before the in-motion alignment ([IMPL]).
+"""Gyro bias and level learnt standing still before the in-motion alignment ([IMPL]).
 
 The GNSS/INS waits for the vehicle to drive before it aligns; while it stands, the gyros read their biases plus the
 earth rate. The mean rate over the latest stretch that the fixes show standing, less the earth rate's component
@@ -8,12 +8,28 @@ from heading innovations once moving, and on straight runs those go into the cra
 Motion shows in the fixes late (latency, the radius a fix-only start must leave), so the stretch ends `guard` s before
 its last standing fix and trailing samples whose mean rate departs from the stretch's median (a start's pitching)
 are dropped.
+The same stretch's mean specific force gives the roll and pitch standing, which the gyros (less that bias) carry to
+the alignment: a level taken while driving off reads the start's acceleration as tilt (0.5 m/s^2 is 2.9 deg).
 """
 import math
 from collections import deque
 from dataclasses import dataclass
+from typing import NamedTuple
+
+from scipy.spatial.transform import Rotation
 
 from . import earth
+from .mechanization import roll_pitch_from_accel
+
+
+class Standing(NamedTuple):
+    """What a standing stretch measured: gyro bias FRD [rad/s], its variances, mean specific force FRD [m/s^2] and
+    the end of the samples averaged [s]."""
+
+    bias: list
+    var: list
+    accel: list
+    t_end: float
 
 
 @dataclass
@@ -27,10 +43,12 @@ class StandstillSettings:
     guard: float = 1.0           # s before the last standing fix left out (motion began before the fixes show it)
     rate_tolerance: float = math.radians(0.1)  # rad/s, a trailing 0.25 s mean rate this far from the median: moving
     window: float = 60.0         # s, longest stretch averaged (the bias drifts)
+    carry: float = 30.0          # s, longest the gyros carry the standing level to the alignment (else: level
+                                 # from the accelerometers at the alignment)
 
 
 class StandstillBias:
-    """Feed IMU samples and fixes before the alignment; `estimate(lat)` -> (bias FRD, variances) or None."""
+    """Feed IMU samples and fixes before the alignment; `estimate(lat)` -> Standing or None; `level(standing)`."""
 
     BUCKET = 0.25                # s of IMU samples summed per bucket
 
@@ -39,8 +57,12 @@ class StandstillBias:
         self._buckets = deque()  # [t, gyro sums (3), accel sums (3), count]
         self._candidate = None   # [t first, t last, first fix] of the standing stretch in progress
         self._stretch = None     # (t first, t last) of the latest stretch that lasted min_duration
+        self._samples = deque()  # (t, gyro) of the last `carry` s
 
     def add_imu(self, t, gyro, accel):
+        self._samples.append((t, gyro))
+        while self._samples[0][0] < t - self.s.carry:
+            self._samples.popleft()
         b = self._buckets[-1] if self._buckets else None
         if b is None or t - b[0] >= self.BUCKET:
             b = [t, [0.0, 0.0, 0.0], [0.0, 0.0, 0.0], 0]
@@ -65,7 +87,7 @@ class StandstillBias:
             self._stretch = (max(c[0], c[1] - self.s.window), c[1])
 
     def estimate(self, lat):
-        """(gyro bias FRD [rad/s], its variances) from the latest standing stretch, or None."""
+        """Standing from the latest standing stretch, or None."""
         if not self.s.enabled or self._stretch is None:
             return None
         t0, t1 = self._stretch
@@ -85,7 +107,21 @@ class StandstillBias:
         vertical, horizontal = earth.OMEGA * math.sin(lat), earth.OMEGA * math.cos(lat)
         bias = [w + vertical * d for w, d in zip(gyro, down)]   # earth rate along down: -Ω sin(lat)
         var = [self.arw ** 2 / duration + horizontal ** 2 * (1.0 - d * d) / 2 for d in down]
-        return bias, var
+        return Standing(bias, var, accel, inside[-1][0] + self.BUCKET)
+
+    def level(self, standing):
+        """(roll, pitch) [rad] of the standing stretch carried by the gyros (less its bias) to the latest sample, or
+        None when the samples since the stretch are no longer all kept."""
+        if not self._samples or self._samples[0][0] > standing.t_end:
+            return None
+        roll, pitch = roll_pitch_from_accel(standing.accel)
+        att, t0 = Rotation.from_euler("ZYX", [0.0, pitch, roll]), standing.t_end
+        for t, gyro in self._samples:
+            if t > t0:
+                att = att * Rotation.from_rotvec([(w - b) * (t - t0) for w, b in zip(gyro, standing.bias)])
+                t0 = t
+        _, pitch, roll = att.as_euler("ZYX")
+        return roll, pitch
 
     def _standing(self, g, first):
         if g.vel_enu is not None:
