@@ -221,7 +221,6 @@ def test_crab_mean_slides_downhill_once_aligned():
     assert s.crab_mean(math.radians(6.0), heading_sigma=math.radians(20.0)) == 0.0              # still aligning
 
 
-
 def test_the_crab_follows_the_terrain_roll_not_the_sway():
     """The slide's roll is the estimate through crab_roll_tau: a 2 deg, 1 Hz sway on level ground leaves it near 0
     (the old instantaneous roll swung the crab's mean by 0.4 deg), a 5 deg cross slope reaches it."""

@@ -122,7 +122,7 @@ class InsNavigation:
     def gnss(self, t, antenna_enu, cov, vel_enu=None, vel_cov=None):
         """Antenna fix (map ENU m, 3x3 m^2) at its epoch, with the ENU velocity of that epoch (m/s) and its 3x3
         covariance (None: unknown; a scalar: a fix-difference velocity, ignored: the EKF's own FixTrack carries its
-        lag to the fix)."""
+        lag to the fix; the pipeline sends none to a strapdown backend)."""
         if not self.guard.accept("gnss", t, antenna_enu, ref=self._imu_clock()):
             return False
         if self.imu_overdue.check(t):
@@ -135,7 +135,7 @@ class InsNavigation:
         lat, lon, alt = self.enu_plane.to_geodetic(*(float(v) for v in antenna_enu))
         g = GnssSample(t, math.radians(lat), math.radians(lon), float(alt), cov)
         if np.ndim(vel_cov) == 0 and vel_cov is not None:
-            vel_enu = None      # the front end's fix-difference velocity: the EKF differences its fixes itself
+            vel_enu = None      # a fix-difference velocity: the EKF differences its fixes itself
         if vel_enu is not None and self.guard.accept("vel", t, vel_enu, ref=self._imu_clock()):
             if vel_cov is None:
                 vel_cov = np.eye(3) * s.default_vel_sigma ** 2

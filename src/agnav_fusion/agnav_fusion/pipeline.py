@@ -11,7 +11,8 @@ Front end (what every estimator needs once):
 - NO_FIX and impossible fixes never reach the estimator; a covariance of type UNKNOWN becomes `unknown_fix_sigma`;
 - fix/velocity epoch pairing: a receiver publishes /gnss/fix before the /gnss/vel of the same epoch, so once a
   velocity has been seen a fix waits for its own up to `velocity_wait` s of IMU time; without /gnss/vel the
-  velocity of the fixes over the last `fix_velocity_baseline` m (at most FIX_HISTORY_S back) is used;
+  velocity of the fixes over the last `fix_velocity_baseline` m (at most FIX_HISTORY_S back) is used (not for a
+  strapdown backend: the INS differences its own fixes, ins.alignment.FixTrack);
 - the tilt source: inclinometer messages, or the accelerometer's gravity direction (`tilt_source: accelerometer`).
 The backend (NavSensorModule: estimator `agnav` or `thesis`; InsNavigation: `ins`) guards values and stamps,
 replays late fixes against its IMU history and keeps the covariances. Every backend gets the accelerometer's
@@ -61,7 +62,7 @@ class FrontEndSettings:
     datum: tuple = (0.0,)               # [lat deg, lon deg, ellipsoidal alt m]; shorter: the first good fix
     tilt_source: str = "inclinometer"   # inclinometer | accelerometer (/imu/data_raw)
     velocity_wait: float = 0.2          # s of IMU time a fix waits for its /gnss/vel
-    fix_velocity_baseline: float = 2.0  # m; 0: no velocity without /gnss/vel
+    fix_velocity_baseline: float = 2.0  # m; 0: no velocity without /gnss/vel (the INS: its own 2 m FixTrack)
     unknown_fix_sigma: float = 1.0      # m per axis of a fix whose covariance type is UNKNOWN
 
 
@@ -239,6 +240,7 @@ class NavigationPipeline:
         """Hand the pending fixes up to the last due one to the backend, in epoch order."""
         last = max((i for i, fix in enumerate(self.pending_fixes) if due(fix)), default=-1)
         for t, enu, cov, _ in self.pending_fixes[:last + 1]:
-            vel = self._velocity_at(t) if self.velocities else self._fix_velocity(t, enu, cov)
+            vel = (self._velocity_at(t) if self.velocities
+                   else None if self.strapdown else self._fix_velocity(t, enu, cov))
             self.backend.gnss(t, enu, cov, *(vel or ()))
         del self.pending_fixes[:last + 1]

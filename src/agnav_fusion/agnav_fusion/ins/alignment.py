@@ -15,12 +15,13 @@ from .mechanization import InsState, roll_pitch_from_accel
 
 class FixTrack:
     """Recent fixes; the velocity at the latest one from the mean velocities over the last `baseline` m (alignment
-    only): such a mean lags by half its span, so the last two means' acceleration carries it to the fix."""
+    only): such a mean lags by half its span, so the acceleration from an earlier mean carries it to the fix (the
+    earlier mean at least half a span back: the carry never exceeds the difference, which would amplify fix noise)."""
 
     def __init__(self, baseline=2.0, window=20.0):
         self.baseline, self.window = baseline, window
         self._fixes = deque()
-        self._mean = None           # (mid time, ENU velocity, covariance) of the previous mean
+        self._means = deque()       # (mid time, ENU velocity, covariance) of the means since the last stop
 
     def velocity(self, g):
         """Adds fix g; (ENU velocity, 3x3 covariance) at g from the latest earlier fix at least `baseline` away and
@@ -36,11 +37,15 @@ class FixTrack:
         while self._fixes[0].t < g.t - self.window:
             self._fixes.popleft()
         if base is None:
+            self._means.clear()     # standing (or a gap): no acceleration across it
             return None
         dt = g.t - base[0].t
         mean = (g.t - dt / 2, base[1] / dt, (np.asarray(g.pos_cov_enu) + base[0].pos_cov_enu) / dt ** 2)
-        prev, self._mean = self._mean, mean
-        if prev is None or mean[0] - prev[0] < 1e-3:
+        prev = next((m for m in reversed(self._means) if m[0] <= mean[0] - dt / 2), None)
+        self._means.append(mean)
+        while self._means[0][0] < mean[0] - 2.0 * dt:
+            self._means.popleft()
+        if prev is None or prev[0] < mean[0] - 2.0 * dt:
             return None
         k = (g.t - mean[0]) / (mean[0] - prev[0])
         step = k * (mean[1] - prev[1])       # constant acceleration; its size again as the margin for a change
@@ -53,7 +58,9 @@ def initial_state(s, g, level, heading, heading_var, gyro_bias, roll_pitch=None)
     roll_pitch: the standing level carried here (else the mean of `level`'s specific force)."""
     if len(level) < 2:
         return None
-    roll, pitch = roll_pitch or roll_pitch_from_accel(np.mean([a for _, a, _ in level], axis=0))
+    if roll_pitch is None:
+        roll_pitch = roll_pitch_from_accel(np.mean([a for _, a, _ in level], axis=0))
+    roll, pitch = roll_pitch
     lever = np.asarray(s.lever_gnss_frd, dtype=float)
     omega = min(level, key=lambda x: abs(x[0] - g.t))[2] - gyro_bias
     v_ned = np.zeros(3)
@@ -62,7 +69,7 @@ def initial_state(s, g, level, heading, heading_var, gyro_bias, roll_pitch=None)
         speed = math.hypot(v[0], v[1])
         if speed > s.align_speed:
             if heading_var >= 1.0 and s.align_from_course:
-                sway = 0.0 * omega if g.vel_from_fixes else omega     # fix differences average the sway out
+                sway = 0.0 * omega if g.vel_from_fixes else omega     # fix differences: mostly averaged out
                 course = heading_from_course(v, lever - s.lever_base_frd, sway, roll, pitch)
                 if course is None:
                     return None             # the antenna's motion is all sway: wait

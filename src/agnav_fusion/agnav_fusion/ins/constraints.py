@@ -120,7 +120,8 @@ class NonHolonomic:
     def terrain_roll(self, roll, dt):
         """The roll through a crab_roll_tau lag: the slope slides the vehicle, the sway only rocks it."""
         lag = self.roll_lag
-        self.roll_lag = roll if lag is None else lag + min(dt / self.s.crab_roll_tau, 1.0) * (roll - lag)
+        tau = self.s.crab_roll_tau
+        self.roll_lag = roll if lag is None or dt >= tau else lag + dt / tau * (roll - lag)    # tau <= 0: no lag
         return self.roll_lag
 
     def base_velocity(self, c_b_cbar, v_c, omega_b):

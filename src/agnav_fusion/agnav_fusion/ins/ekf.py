@@ -238,12 +238,13 @@ class InsEkf:
         time, rate and yaw mount."""
         self._propagate_covariance()
         return {"mech": copy.deepcopy(self.mech), "p": self.p.copy(), "crab": self.crab, "t": self.t,
-                "omega_b": self.omega_b.copy(), "mount_yaw": self.mount.yaw}
+                "omega_b": self.omega_b.copy(), "mount_yaw": self.mount.yaw,
+                "roll_lag": self.nhc.roll_lag if self.nhc else None}
 
-    def adopt(self, mech, p, crab=0.0, t=None, omega_b=None, mount_yaw=0.0):
+    def adopt(self, mech, p, crab=0.0, t=None, omega_b=None, mount_yaw=0.0, roll_lag=None):
         """Take over an INS state (e.g. export_state() of a tightly coupled filter's INS): P's first n_states
-        rows/columns (a 16x16 P gets the crab's steady variance and the scale's initial one); the solution history
-        restarts here."""
+        rows/columns (a 16x16 P gets the crab's steady variance and the scale's initial one), the crab's terrain roll
+        (None: from the next roll); the solution history restarts here."""
         self.mech, self.crab, self.t = mech, crab, t
         self.mount.set(mount_yaw)
         k = min(len(p), em.N_INS)
@@ -254,7 +255,7 @@ class InsEkf:
         for i in range(max(k, CRAB), em.N_INS):     # the states a shorter P lacks: their initial variances
             self.p[i, i] = augmented[i - CRAB]
         if self.nhc:
-            self.nhc.roll_lag = None
+            self.nhc.roll_lag = roll_lag
         self._crab_mean = self.s.nhc.crab_mean(mech.state.euler()[0], self.heading_sigma()) if self.nhc else 0.0
         self.omega_b = np.zeros(3) if omega_b is None else np.array(omega_b, dtype=float)
         self._f, self._cov_dt, self._gap_var, self._pending, self._corr = None, 0.0, None, [], np.zeros(6)

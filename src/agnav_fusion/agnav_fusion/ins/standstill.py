@@ -7,7 +7,7 @@ earth rate (direction unknown until the heading is) counts in its variance. With
 from heading innovations once moving, and on straight runs those go into the crab as much as into the bias.
 Motion shows in the fixes late (latency, the radius a fix-only start must leave), so the stretch ends `guard` s before
 its last standing fix and trailing samples whose mean rate departs from the stretch's median (a start's pitching)
-are dropped.
+are dropped (and those whose specific force departs from it: a start's acceleration).
 The same stretch's mean specific force gives the roll and pitch standing, which the gyros (less that bias) carry to
 the alignment: a level taken while driving off reads the start's acceleration as tilt (0.5 m/s^2 is 2.9 deg).
 """
@@ -16,9 +16,7 @@ from collections import deque
 from dataclasses import dataclass
 from typing import NamedTuple
 
-from scipy.spatial.transform import Rotation
-
-from . import earth
+from . import earth, quaternion
 from .mechanization import roll_pitch_from_accel
 
 
@@ -42,6 +40,7 @@ class StandstillSettings:
     min_duration: float = 2.0    # s of standing for a bias measurement
     guard: float = 1.0           # s before the last standing fix left out (motion began before the fixes show it)
     rate_tolerance: float = math.radians(0.1)  # rad/s, a trailing 0.25 s mean rate this far from the median: moving
+    accel_tolerance: float = 0.05  # m/s^2, a trailing 0.25 s mean specific force this far from the median: moving
     window: float = 60.0         # s, longest stretch averaged (the bias drifts)
     carry: float = 30.0          # s, longest the gyros carry the standing level to the alignment (else: level
                                  # from the accelerometers at the alignment)
@@ -58,6 +57,7 @@ class StandstillBias:
         self._candidate = None   # [t first, t last, first fix] of the standing stretch in progress
         self._stretch = None     # (t first, t last) of the latest stretch that lasted min_duration
         self._samples = deque()  # (t, gyro) of the last `carry` s
+        self._carried = None     # (Standing, attitude quaternion, its time): the level carried so far
 
     def add_imu(self, t, gyro, accel):
         self._samples.append((t, gyro))
@@ -93,9 +93,11 @@ class StandstillBias:
         t0, t1 = self._stretch
         inside = [b for b in self._buckets if t0 <= b[0] and b[0] + self.BUCKET <= t1 - self.s.guard]
         if inside:
-            means = [[v / b[3] for v in b[1]] for b in inside]
-            median = [sorted(m[i] for m in means)[len(means) // 2] for i in range(3)]
-            while inside and math.dist(means[len(inside) - 1], median) > self.s.rate_tolerance:
+            rates, forces = ([[v / b[3] for v in b[k]] for b in inside] for k in (1, 2))
+            mid_rate, mid_force = ([sorted(m[i] for m in means)[len(means) // 2] for i in range(3)]
+                                   for means in (rates, forces))
+            while inside and (math.dist(rates[len(inside) - 1], mid_rate) > self.s.rate_tolerance
+                              or math.dist(forces[len(inside) - 1], mid_force) > self.s.accel_tolerance):
                 inside.pop()
         n, duration = sum(b[3] for b in inside), len(inside) * self.BUCKET
         if duration < self.s.min_duration / 2:
@@ -111,17 +113,25 @@ class StandstillBias:
 
     def level(self, standing):
         """(roll, pitch) [rad] of the standing stretch carried by the gyros (less its bias) to the latest sample, or
-        None when the samples since the stretch are no longer all kept."""
-        if not self._samples or self._samples[0][0] > standing.t_end:
+        None when the samples since the stretch are no longer all kept. Carried on from the last call for the same
+        stretch: only the new samples are integrated."""
+        if self._carried is not None and self._carried[0] == standing:
+            q, t0 = self._carried[1:]
+        elif self._samples and self._samples[0][0] <= standing.t_end:
+            q, t0 = tuple(quaternion.from_roll_pitch_yaw(*roll_pitch_from_accel(standing.accel))), standing.t_end
+        else:
             return None
-        roll, pitch = roll_pitch_from_accel(standing.accel)
-        att, t0 = Rotation.from_euler("ZYX", [0.0, pitch, roll]), standing.t_end
-        for t, gyro in self._samples:
-            if t > t0:
-                att = att * Rotation.from_rotvec([(w - b) * (t - t0) for w, b in zip(gyro, standing.bias)])
-                t0 = t
-        _, pitch, roll = att.as_euler("ZYX")
-        return roll, pitch
+        new = []
+        for t, gyro in reversed(self._samples):
+            if t <= t0:
+                break
+            new.append((t, gyro))
+        b0, b1, b2 = standing.bias
+        for t, (w0, w1, w2) in reversed(new):
+            q, t0 = quaternion.increment((w0 - b0) * (t - t0), (w1 - b1) * (t - t0), (w2 - b2) * (t - t0), *q), t
+        self._carried = (standing, q, t0)
+        (_, _, _), (_, _, _), (c6, c7, c8) = quaternion.dcm_rows(q)
+        return math.atan2(c7, c8), -math.asin(max(-1.0, min(1.0, c6)))
 
     def _standing(self, g, first):
         if g.vel_enu is not None:
