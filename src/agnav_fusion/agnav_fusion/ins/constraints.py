@@ -116,6 +116,22 @@ class NonHolonomic:
         self.s = settings
         self.lever = np.asarray(lever_base_frd, dtype=float)   # IMU -> base_link, body FRD [m]
         self.roll_lag = None     # the terrain roll driving the crab (None: restart from the next roll)
+        self.crab_mean = 0.0     # the roll-driven mean the crab state deviates from
+
+    def reset(self, roll_lag=None, roll=None, heading_sigma=0.0):
+        """Restart the terrain roll (None: from the next roll) and the crab mean (at this roll; None: zero)."""
+        self.roll_lag = roll_lag
+        self.crab_mean = 0.0 if roll is None else self.s.crab_mean(roll, heading_sigma)
+
+    def propagate_crab(self, crab, roll, dt, heading_sigma):
+        """Crab over dt at this estimated roll: its roll-driven mean (at once) plus a first-order Gauss-Markov
+        deviation, steady sigma from the terrain roll; returns (crab, its transition, its process noise)."""
+        a = min(dt / self.s.crab_tau, 1.0)
+        roll = self.terrain_roll(roll, dt)
+        mean = self.s.crab_mean(roll, heading_sigma)
+        crab = mean + (1.0 - a) * (crab - self.crab_mean)
+        self.crab_mean = mean
+        return crab, 1.0 - a, 2.0 * a * self.s.crab_var(roll)
 
     def terrain_roll(self, roll, dt):
         """The roll through a crab_roll_tau lag: the slope slides the vehicle, the sway only rocks it."""

@@ -48,7 +48,6 @@ class InsEkf:
         self.wheel = WheelSpeed(self.s.wheel, self.s.lever_base_frd)
         self.wheel_scale, self._wheel = 0.0, None   # a wheel reads (1 + scale) x speed; (t, speed, var) to fuse
         self.crab = 0.0
-        self._crab_mean = 0.0             # the roll-driven mean the crab state deviates from (propagate_covariance)
         self.mount = YawMount()           # the IMU's yaw mount estimate: the samples are turned by it
         self._nhc_t = -math.inf
         self.models = [GnssPosition(self.s.lever_gnss_frd), GnssVelocity(self.s.lever_gnss_frd)]
@@ -186,9 +185,8 @@ class InsEkf:
         return dt
 
     def propagate_covariance(self, p, dt, q_extra=()):
-        """Φ P Φᵀ + U Δt (5-9-4, 5-6-2), Φ = I + F Δt over dt at the last mechanization step; crab: its roll-driven
-        mean (at once) plus a first-order Gauss-Markov deviation, steady σ from the roll; the z scale error acts as
-        the z gyro bias times the z rate. Rows beyond n_states: Φ = I, white noise `q_extra` [unit²/s]."""
+        """Φ P Φᵀ + U Δt (5-9-4, 5-6-2), Φ = I + F Δt over dt at the last mechanization step; crab: NonHolonomic's
+        roll-driven model; the z scale error acts as the z gyro bias times the z rate. Rows beyond n_states: Φ = I, white noise `q_extra` [unit²/s]."""
         st = self.mech.state
         rho, omega, a_c, c_bc = self._f
         lat, _, alpha = st.geo()
@@ -199,12 +197,8 @@ class InsEkf:
         phi[bgz, em.GYRO_SCALE], phi[em.GYRO_SCALE, em.GYRO_SCALE] = 0.0, 1.0
         if self.nhc is not None:
             (_, _, _), (_, _, _), (_, c7, c8) = st.dcm_rows()
-            a, roll = min(dt / self.s.nhc.crab_tau, 1.0), self.nhc.terrain_roll(math.atan2(c7, c8), dt)
-            phi[CRAB, CRAB] = 1.0 - a
-            mean = self.s.nhc.crab_mean(roll, self.heading_sigma())
-            self.crab = mean + (1.0 - a) * (self.crab - self._crab_mean)
-            self._crab_mean = mean
-            q[CRAB] = 2.0 * a * self.s.nhc.crab_var(roll)
+            self.crab, phi[CRAB, CRAB], q[CRAB] = self.nhc.propagate_crab(self.crab, math.atan2(c7, c8), dt,
+                                                                          self.heading_sigma())
         p = phi @ p @ phi.T
         p.flat[::len(p) + 1] += q
         return p
@@ -255,8 +249,7 @@ class InsEkf:
         for i in range(max(k, CRAB), em.N_INS):     # the states a shorter P lacks: their initial variances
             self.p[i, i] = augmented[i - CRAB]
         if self.nhc:
-            self.nhc.roll_lag = roll_lag
-        self._crab_mean = self.s.nhc.crab_mean(mech.state.euler()[0], self.heading_sigma()) if self.nhc else 0.0
+            self.nhc.reset(roll_lag, mech.state.euler()[0], self.heading_sigma())
         self.omega_b = np.zeros(3) if omega_b is None else np.array(omega_b, dtype=float)
         self._f, self._cov_dt, self._gap_var, self._pending, self._corr = None, 0.0, None, [], np.zeros(6)
         self._history.clear()
@@ -288,10 +281,9 @@ class InsEkf:
             return False
         self.mech = Mechanization(init[0], gyro_bias=bias)
         self.p = np.diag(initial_variances(self.s, g, init[1], self.nhc is not None, still.var if still else None))
-        self.crab = self._crab_mean = 0.0
-        self._f = None
+        self.crab, self._f = 0.0, None
         if self.nhc:
-            self.nhc.roll_lag = None
+            self.nhc.reset()
         self._history.clear()
         self._snapshot()
         return True
