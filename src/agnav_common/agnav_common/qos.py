@@ -16,9 +16,45 @@ LATCHED_NAMES = ("tf_static", "map_datum")  # last name part: /tractor1/map_datu
 def subscribe_input(node, msg_type, topic, callback):
     """A sensor-input subscription with SENSOR_QOS that a user may override with the standard ROS 2 parameters
     `qos_overrides.<topic>.subscription.{reliability,history,depth}` (read-only, set at start), e.g. reliability
-    best_effort to match a driver that publishes with SensorDataQoS (a reliable reader never hears it)."""
-    return node.create_subscription(msg_type, topic, callback, SENSOR_QOS,
-                                    qos_overriding_options=QoSOverridingOptions.with_default_policies())
+    best_effort to match a driver that publishes with SensorDataQoS (a reliable reader never hears it).
+    Over DDS it takes the serialized message and decodes it with bagio.from_cdr (the message rclpy would build, at a
+    fraction of rclpy's cost); on the deterministic bus (agnav_common.local_bus) it takes the published object."""
+    from agnav_common import local_bus
+    options = {"qos_overriding_options": QoSOverridingOptions.with_default_policies()}
+    if local_bus.current() is not None:
+        return node.create_subscription(msg_type, topic, callback, SENSOR_QOS, **options)
+    return node.create_subscription(msg_type, topic, _decoding(node, msg_type, topic, callback), SENSOR_QOS,
+                                    raw=True, **options)
+
+
+def encoder():
+    """msg -> what a high-rate publisher publishes: over DDS the CDR bytes of bagio.cdr (a fraction of rclpy's
+    serialization, zeroed padding), on the deterministic bus the message itself (its subscriptions take the object).
+    Call it when the node is built."""
+    from agnav_common import local_bus
+    if local_bus.current() is not None:
+        return _same
+    from agnav_common.bagio import cdr
+    return cdr
+
+
+def _same(msg):
+    return msg
+
+
+def _decoding(node, msg_type, topic, callback):
+    """callback(message) of serialized bytes; bytes that do not decode are an error in the log, never a crash."""
+    from agnav_common.bagio import from_cdr
+
+    def on_bytes(data):
+        try:
+            msg = from_cdr(data, msg_type)
+        except Exception as exc:  # noqa: BLE001  (struct, index, unicode or rclpy errors of malformed bytes)
+            node.get_logger().error(f"{topic}: dropped a message that does not decode as {msg_type.__name__} "
+                                    f"({type(exc).__name__}: {exc})", throttle_duration_sec=5.0)
+            return
+        callback(msg)
+    return on_bytes
 
 
 def known_profile(topic):

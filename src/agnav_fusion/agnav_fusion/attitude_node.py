@@ -27,7 +27,7 @@ class AttitudeNode(NavSensorModuleNode):
         return True
 
     def publish(self, s):
-        self.imu_pub.publish(imu_message(s, self.frames["base"], max_yaw_variance=UNKNOWN_VARIANCE))
+        self.imu_pub.publish(self.encode(imu_message(s, self.frames["base"], max_yaw_variance=UNKNOWN_VARIANCE)))
 
     def mounts_ready(self):
         """The attitude needs only the IMU mount; a missing GNSS mount means a zero lever arm."""
