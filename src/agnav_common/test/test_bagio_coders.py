@@ -54,3 +54,14 @@ def test_definitions_as_the_store_derives_them_and_cached(tmp_path, monkeypatch)
     monkeypatch.setattr(bagio, "_definitions", {})  # a new process: from the file alone
     monkeypatch.setattr(bagio, "typestore", None)
     assert [bagio.definition(t) for t in types] == expected
+
+
+def test_bytes_that_are_no_message_raise_and_leave_the_reader_unchecked():
+    from sensor_msgs.msg import Temperature    # a type no other test here decodes first
+    with pytest.raises(Exception):
+        bagio.from_cdr(b"\x00\x01\x00\x00\x07", Temperature)
+    assert Temperature not in bagio._READERS
+    msg = Temperature(temperature=21.5, variance=0.25)
+    msg.header.frame_id = "t"
+    assert bagio.from_cdr(bagio.cdr(msg), Temperature) == msg and bagio._READERS[Temperature] is not None
+    assert bagio.from_cdr(bagio.cdr(msg), Temperature) == msg           # the generated reader
