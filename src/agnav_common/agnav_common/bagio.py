@@ -10,6 +10,7 @@ import os
 import struct
 import sys
 import tempfile
+import threading
 from functools import lru_cache
 from io import BytesIO
 from pathlib import Path
@@ -51,6 +52,7 @@ def typestore():
 
 
 _definitions = {}  # "file": the cache file of definition(), "types": msgtype -> [msgdef, rihs01] or None
+_DEFINITIONS_LOCK = threading.Lock()
 
 
 def _definitions_file():
@@ -67,24 +69,26 @@ def _definitions_file():
 def definition(msgtype):
     """(msgdef, rihs01) of msgtype as rosbags' Writer.add_connection derives them from typestore() (its ROS 2
     message definition and type hash), None for a type the store does not know. Cached on disk: building the
-    store costs ~0.1 s of every recording's start-up."""
-    if not _definitions:
-        path = _definitions["file"] = _definitions_file()
-        try:
-            _definitions["types"] = json.loads(path.read_text())
-        except (OSError, ValueError):
-            _definitions["types"] = {}
-    types = _definitions["types"]
-    if msgtype not in types:
-        store = typestore()
-        types[msgtype] = ([store.generate_msgdef(msgtype, ros_version=2)[0], store.hash_rihs01(msgtype)]
-                          if msgtype in store.types else None)
-        path = _definitions["file"]
-        path.parent.mkdir(parents=True, exist_ok=True)
-        tmp = path.with_suffix(f".{os.getpid()}")
-        tmp.write_text(json.dumps(types))
-        os.replace(tmp, path)  # whole files only, whoever writes last
-    return types[msgtype]
+    store costs ~0.1 s of every recording's start-up. Thread-safe (a driver's reader thread publishes too)."""
+    with _DEFINITIONS_LOCK:
+        if not _definitions:
+            path = _definitions["file"] = _definitions_file()
+            try:
+                _definitions["types"] = json.loads(path.read_text())
+            except (OSError, ValueError):
+                _definitions["types"] = {}
+        types = _definitions["types"]
+        if msgtype not in types:
+            store = typestore()
+            types[msgtype] = ([store.generate_msgdef(msgtype, ros_version=2)[0], store.hash_rihs01(msgtype)]
+                              if msgtype in store.types else None)
+            path = _definitions["file"]
+            path.parent.mkdir(parents=True, exist_ok=True)
+            fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".tmp")
+            with os.fdopen(fd, "w") as f:
+                f.write(json.dumps(types))
+            os.replace(tmp, path)  # whole files only, whoever writes last
+        return types[msgtype]
 
 
 def type_name(msg_type):

@@ -1,4 +1,6 @@
 """QoS profiles shared by every agnav node, and their rosbag2 form (offered_qos_profiles of a recording)."""
+import math
+
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.qos_overriding_options import QoSOverridingOptions
 
@@ -44,14 +46,19 @@ def _same(msg):
 
 def _decoding(node, msg_type, topic, callback):
     """callback(message) of serialized bytes; bytes that do not decode are an error in the log, never a crash."""
+    import time
+
     from agnav_common.bagio import from_cdr
+    logged = [-math.inf]    # monotonic time of this topic's last such error (one line per 5 s and topic)
 
     def on_bytes(data):
         try:
             msg = from_cdr(data, msg_type)
         except Exception as exc:  # noqa: BLE001  (struct, index, unicode or rclpy errors of malformed bytes)
-            node.get_logger().error(f"{topic}: dropped a message that does not decode as {msg_type.__name__} "
-                                    f"({type(exc).__name__}: {exc})", throttle_duration_sec=5.0)
+            if time.monotonic() - logged[0] >= 5.0:
+                logged[0] = time.monotonic()
+                node.get_logger().error(f"{topic}: dropped a message that does not decode as {msg_type.__name__} "
+                                        f"({type(exc).__name__}: {exc})")
             return
         callback(msg)
     return on_bytes

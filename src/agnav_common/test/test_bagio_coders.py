@@ -65,3 +65,24 @@ def test_bytes_that_are_no_message_raise_and_leave_the_reader_unchecked():
     msg.header.frame_id = "t"
     assert bagio.from_cdr(bagio.cdr(msg), Temperature) == msg and bagio._READERS[Temperature] is not None
     assert bagio.from_cdr(bagio.cdr(msg), Temperature) == msg           # the generated reader
+
+
+def test_definitions_from_two_threads_at_once(tmp_path, monkeypatch):
+    import threading
+    monkeypatch.setattr("tempfile.tempdir", str(tmp_path))
+    monkeypatch.setattr(bagio, "_definitions", {})
+    types = ["nav_msgs/msg/Odometry", "sensor_msgs/msg/Imu", "tf2_msgs/msg/TFMessage", "agnav_msgs/msg/Inclination"]
+    errors, results = [], {}
+
+    def worker(k):
+        try:
+            results[k] = [bagio.definition(t) for t in types[k:] + types[:k]]
+        except Exception as exc:  # noqa: BLE001  (collected, the assertion below reports it)
+            errors.append(exc)
+
+    threads = [threading.Thread(target=worker, args=(k,)) for k in range(4)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert errors == [] and all(r[(4 - k) % 4] == results[0][0] for k, r in results.items())

@@ -186,7 +186,8 @@ class InsEkf:
 
     def propagate_covariance(self, p, dt, q_extra=()):
         """Φ P Φᵀ + U Δt (5-9-4, 5-6-2), Φ = I + F Δt over dt at the last mechanization step; crab: NonHolonomic's
-        roll-driven model; the z scale error acts as the z gyro bias times the z rate. Rows beyond n_states: Φ = I, white noise `q_extra` [unit²/s]."""
+        roll-driven model; the z scale error acts as the z gyro bias times the z rate. Rows beyond n_states: Φ = I,
+        white noise `q_extra` [unit²/s]."""
         st = self.mech.state
         rho, omega, a_c, c_bc = self._f
         lat, _, alpha = st.geo()
