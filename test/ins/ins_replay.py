@@ -70,10 +70,6 @@ class _Capture:
 
     send = publish
 
-    @staticmethod
-    def same(msg):
-        return msg
-
 
 @dataclass
 class Run:
@@ -121,7 +117,6 @@ def replay(messages, parameters=(), publish_from=0.0):
         Parameter("datum", value=[datum.latitude, datum.longitude, datum.altitude]),
         Parameter("use_sim_time", value=True), Parameter("publish_tf", value=False), *parameters])
     node.odom_pub, node.imu_pub, node.tf_out = _Capture(), _Capture(), _Capture()
-    node.encode = _Capture.same        # messages, not the CDR bytes a DDS publisher gets
     clock = node.get_clock()
     callbacks = {"/tf_static": node.tf.add, "/imu/data_raw": node.on_imu, "/gnss/fix": node.pipeline.on_fix,
                  "/gnss/vel": node.pipeline.on_velocity}

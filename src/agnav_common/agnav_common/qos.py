@@ -1,5 +1,9 @@
-"""QoS profiles shared by every agnav node, and their rosbag2 form (offered_qos_profiles of a recording)."""
+"""QoS profiles shared by every agnav node, and their rosbag2 form (offered_qos_profiles of a recording).
+Wire format: over DDS, sensor inputs arrive as serialized bytes decoded by bagio.from_cdr and high-rate outputs
+leave as bagio.cdr bytes (rclpy's own conversion costs several times more); on the deterministic bus
+(agnav_common.local_bus) messages pass as objects."""
 import math
+import time
 
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.qos_overriding_options import QoSOverridingOptions
@@ -29,25 +33,30 @@ def subscribe_input(node, msg_type, topic, callback):
                                     raw=True, **options)
 
 
-def encoder():
-    """msg -> what a high-rate publisher publishes: over DDS the CDR bytes of bagio.cdr (a fraction of rclpy's
-    serialization, zeroed padding), on the deterministic bus the message itself (its subscriptions take the object).
-    Call it when the node is built."""
+def create_output(node, msg_type, topic, qos):
+    """A publisher for a high-rate output: publish(msg) sends the message's bagio.cdr bytes over DDS (a fraction
+    of rclpy's serialization, zeroed padding); on the deterministic bus the plain publisher (it passes objects)."""
     from agnav_common import local_bus
-    if local_bus.current() is not None:
-        return _same
-    from agnav_common.bagio import cdr
-    return cdr
+    publisher = node.create_publisher(msg_type, topic, qos)
+    return publisher if local_bus.current() is not None else CdrPublisher(publisher)
 
 
-def _same(msg):
-    return msg
+class CdrPublisher:
+    """An rclpy publisher whose publish(msg) sends msg as bagio.cdr bytes; everything else is the publisher's."""
+
+    def __init__(self, publisher):
+        from agnav_common.bagio import cdr
+        self.publisher, self._cdr = publisher, cdr
+
+    def publish(self, msg):
+        self.publisher.publish(self._cdr(msg))
+
+    def __getattr__(self, name):
+        return getattr(self.publisher, name)
 
 
 def _decoding(node, msg_type, topic, callback):
     """callback(message) of serialized bytes; bytes that do not decode are an error in the log, never a crash."""
-    import time
-
     from agnav_common.bagio import from_cdr
     logged = [-math.inf]    # monotonic time of this topic's last such error (one line per 5 s and topic)
 

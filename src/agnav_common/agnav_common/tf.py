@@ -4,7 +4,7 @@ from geometry_msgs.msg import TransformStamped
 from tf2_msgs.msg import TFMessage
 
 from agnav_common.message_factory import new_message
-from agnav_common.qos import LATCHED_QOS, encoder
+from agnav_common.qos import LATCHED_QOS, create_output
 
 
 def make_transform(parent, child, stamp, xyz, quat):
@@ -103,10 +103,9 @@ class TransformBroadcaster:
     """Publishes dynamic transforms on /tf."""
 
     def __init__(self, node):
-        self._pub = node.create_publisher(TFMessage, "/tf", 100)
-        self._encode = encoder()
+        self._pub = create_output(node, TFMessage, "/tf", 100)
 
     def send(self, transforms):
         msg = new_message(TFMessage)
         msg.transforms = list(transforms)
-        self._pub.publish(self._encode(msg))
+        self._pub.publish(msg)

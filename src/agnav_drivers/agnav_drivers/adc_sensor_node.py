@@ -12,7 +12,7 @@ from std_srvs.srv import Trigger
 
 from agnav_common.diagnostics import OK, WARN
 from agnav_common.node_main import main_for
-from agnav_common.qos import PUBLISHER_QOS, encoder
+from agnav_common.qos import PUBLISHER_QOS, create_output
 from agnav_msgs.msg import Inclination
 
 from .adc import AdcConverter, AdcDecoder, AdcSettings
@@ -66,10 +66,9 @@ class AdcSensorNode(StreamDriverNode):
         self.accel_var = s.accel_noise ** 2                    # (m/s^2)^2
         self.incl_var = math.radians(s.incl_noise) ** 2        # deg rms -> rad^2
         self.mag_var = (s.mag_noise * 1e-7) ** 2               # mG rms -> T^2
-        self.imu_pub = self.create_publisher(Imu, "imu/data_raw", PUBLISHER_QOS)
-        self.incl_pub = self.create_publisher(Inclination, "inclinometer", PUBLISHER_QOS)
-        self.mag_pub = self.create_publisher(MagneticField, "imu/mag", PUBLISHER_QOS)
-        self.encode = encoder()  # the samples as CDR bytes over DDS
+        self.imu_pub = create_output(self, Imu, "imu/data_raw", PUBLISHER_QOS)
+        self.incl_pub = create_output(self, Inclination, "inclinometer", PUBLISHER_QOS)
+        self.mag_pub = create_output(self, MagneticField, "imu/mag", PUBLISHER_QOS)
         self.create_service(Trigger, "~/calibrate_gyro", self._calibrate)
         self.diagnostics.add("adc", self._check)
         self.diagnostics.add("gyro_zero", self._gyro_check)
@@ -88,14 +87,14 @@ class AdcSensorNode(StreamDriverNode):
                 msg = Inclination(roll=reading.roll, pitch=reading.pitch, roll_variance=self.incl_var,
                                   pitch_variance=self.incl_var)
                 msg.header.stamp, msg.header.frame_id = stamp, self.incl_frame
-                self.incl_pub.publish(self.encode(msg))
+                self.incl_pub.publish(msg)
                 self.published += 1
             if reading.mag is not None:
                 msg = MagneticField()
                 msg.header.stamp, msg.header.frame_id = stamp, self.mag_frame
                 msg.magnetic_field.x, msg.magnetic_field.y, msg.magnetic_field.z = (float(v) for v in reading.mag)
                 msg.magnetic_field_covariance = [self.mag_var, 0.0, 0.0, 0.0, self.mag_var, 0.0, 0.0, 0.0, self.mag_var]
-                self.mag_pub.publish(self.encode(msg))
+                self.mag_pub.publish(msg)
                 self.published += 1
 
     def _imu(self, stamp, reading):
@@ -112,7 +111,7 @@ class AdcSensorNode(StreamDriverNode):
                                                   self.accel_var]
         else:
             msg.linear_acceleration_covariance[0] = -1.0
-        self.imu_pub.publish(self.encode(msg))
+        self.imu_pub.publish(msg)
         self.published += 1
 
     def _calibrate(self, request, response):

@@ -5,7 +5,7 @@ attitude LSM eq 5.1-5.11); yaw is the gyro-integrated (relative) heading with an
 Same parameters as nav_sensor_module_node.
 """
 from agnav_common.node_main import main_for
-from agnav_common.qos import PUBLISHER_QOS
+from agnav_common.qos import PUBLISHER_QOS, create_output
 from sensor_msgs.msg import Imu
 
 from agnav_fusion.nav_sensor_module_node import NavSensorModuleNode, imu_message
@@ -20,14 +20,14 @@ class AttitudeNode(NavSensorModuleNode):
     def __init__(self, **kwargs):
         super().__init__("attitude_node", **kwargs)
         self.publish_tf = False
-        self.imu_pub = self.create_publisher(Imu, "imu/data", PUBLISHER_QOS)
+        self.imu_pub = create_output(self, Imu, "imu/data", PUBLISHER_QOS)
 
     def ready(self, state):
         """Attitude is published from the first sample (yaw relative, with its large variance)."""
         return True
 
     def publish(self, s):
-        self.imu_pub.publish(self.encode(imu_message(s, self.frames["base"], max_yaw_variance=UNKNOWN_VARIANCE)))
+        self.imu_pub.publish(imu_message(s, self.frames["base"], max_yaw_variance=UNKNOWN_VARIANCE))
 
     def mounts_ready(self):
         """The attitude needs only the IMU mount; a missing GNSS mount means a zero lever arm."""

@@ -23,7 +23,7 @@ from agnav_common.frames import matrix_from_quaternion, quaternion_from_euler
 from agnav_common.message_factory import new_message
 from agnav_common.node_main import main_for
 from agnav_common.parameters import declare, descriptor, leaves
-from agnav_common.qos import LATCHED_QOS, PUBLISHER_QOS, encoder, subscribe_input
+from agnav_common.qos import LATCHED_QOS, PUBLISHER_QOS, create_output, subscribe_input
 from agnav_common.stamps import to_stamp
 from agnav_common.tf import TfBuffer, TransformBroadcaster
 from agnav_msgs.msg import GnssNavData, GnssObservations, GnssStatus, Inclination
@@ -125,14 +125,13 @@ class NavSensorModuleNode(Node):
         self.pipeline = NavigationPipeline(self.backend, front, on_datum=self.publish_datum if self.uses_gnss else None)
         self.tf = TfBuffer(self)
         self.tf_out = TransformBroadcaster(self)
-        self.encode = encoder()  # the outputs as CDR bytes over DDS
         self.odom_frame = OdomFrame()
         subscribe_input(self, Imu, "imu/data_raw", self.on_imu)
         if front.tilt_source == "inclinometer" and not self.pipeline.strapdown:
             subscribe_input(self, Inclination, "inclinometer", self.pipeline.on_inclinometer)
         if self.uses_gnss:
-            self.odom_pub = self.create_publisher(Odometry, "odometry/filtered", PUBLISHER_QOS)
-            self.imu_pub = self.create_publisher(Imu, "imu/data", PUBLISHER_QOS)  # the fused attitude
+            self.odom_pub = create_output(self, Odometry, "odometry/filtered", PUBLISHER_QOS)
+            self.imu_pub = create_output(self, Imu, "imu/data", PUBLISHER_QOS)  # the fused attitude
             self.datum_pub = self.create_publisher(NavSatFix, "map_datum", LATCHED_QOS)
             subscribe_input(self, NavSatFix, "gnss/fix", self.pipeline.on_fix)
             subscribe_input(self, TwistWithCovarianceStamped, "gnss/vel", self.pipeline.on_velocity)
@@ -194,8 +193,8 @@ class NavSensorModuleNode(Node):
 
     def publish(self, s):
         stamp, quat = to_stamp(s.t), quaternion_from_euler(*s.rpy)   # shared by the outputs (read-only)
-        self.odom_pub.publish(self.encode(odometry_message(s, self.frames, stamp, quat)))
-        self.imu_pub.publish(self.encode(imu_message(s, self.frames["base"], stamp=stamp, quat=quat)))
+        self.odom_pub.publish(odometry_message(s, self.frames, stamp, quat))
+        self.imu_pub.publish(imu_message(s, self.frames["base"], stamp=stamp, quat=quat))
         if self.publish_tf:  # REP-105: odom->base_link continuous, the fixes' corrections in map->odom
             xyz, quat, map_xyz, map_quat = self.odom_frame.update(s.t, s.position, s.rpy, s.speed, s.rates[2])
             self.tf_out.send(pose_transforms(self.frames, stamp, xyz, quat, (map_xyz, map_quat)))
