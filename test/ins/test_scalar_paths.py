@@ -131,7 +131,6 @@ def solution_ref(ekf):
     pos = np.zeros((3, 3))
     pos[:2, :2] = a @ p[:2, :2] @ a.T
     pos[2, 2] = p[em.H, em.H]
-    pos += ekf.fix_drift_cov
     m = ENU_TO_NED.T @ ned_to_c(alpha).T
     v3 = np.ix_(list(em.V3), list(em.V3))
     tx, ty, c = p[em.TX, em.TX], p[em.TY, em.TY], p[em.TX, em.TY]
@@ -235,7 +234,6 @@ def test_dynamics_matches_the_term_form(trial):
 def _ekf_with_random_state():
     ekf = InsEkf(InsEkfSettings(lever_gnss_frd=(0.3, -0.1, -1.5), lever_base_frd=(-0.5, 0.0, 1.0)))
     ekf.adopt(Mechanization(random_state()), random_spd(em.N_INS), crab=0.01, t=12.5, omega_b=RNG.normal(0, 0.1, 3))
-    ekf.fix_drift_cov = random_spd(3)
     return ekf
 
 

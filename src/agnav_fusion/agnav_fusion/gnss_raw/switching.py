@@ -14,8 +14,8 @@ cross-covariances with the INS states come from the first updates ([IMPL] of (5-
 
 Output jumps: for `jump_window` s after each switch, every step's change of the antenna output beyond its
 dead-reckoned motion (p₁ − p₀ − v₀Δt) is divided by the larger σ along it of the outputs before and after
-(√(uᵀ C u); a loose output's C includes the receiver's slowly drifting error, InsEkf.fix_drift_cov: a tight
-solution handed back meets fixes offset by it); `transitions` keeps the largest ratio per switch.
+(√(uᵀ C u); a loose output's C includes the receiver's slowly drifting error, the InsEkf's GNSS bias states: a
+tight solution handed back meets fixes offset by it); `transitions` keeps the largest ratio per switch.
 
 Switching also offers the InsEkf interface nav_ins.InsNavigation drives (add_imu, add_gnss, solution, gnss_age,
 health, ...: the backend of estimator `ins_tight`, agnav_fusion.nav_ins_tight): the solution and its covariance are
@@ -27,7 +27,6 @@ import math
 
 import numpy as np
 
-from agnav_fusion.gnss_raw.geometry import enu_basis
 from agnav_fusion.ins.ekf import ALIGNED
 from agnav_fusion.gnss_raw.tight import TightConfig, TightFilter, antenna_jacobians, antenna_state
 
@@ -75,11 +74,7 @@ class Switching:
         omega = f.ins.omega_b if self.mode == TIGHT else f.omega_b
         pos, vel = antenna_state(f.mech, self.lever, omega)
         jp = antenna_jacobians(f.mech, self.lever, omega, len(f.p))[0]
-        cov = jp @ f.p @ jp.T
-        if self.mode != TIGHT:          # + the receiver's slowly drifting error the loose output carries
-            enu = np.array(enu_basis(pos))
-            cov = cov + enu.T @ self.ekf.fix_drift_cov @ enu
-        return pos, vel, cov
+        return pos, vel, jp @ f.p @ jp.T
 
     def add_imu(self, t, gyro_frd, accel_frd):
         """-> the active filter's rejection reason (None: used)."""

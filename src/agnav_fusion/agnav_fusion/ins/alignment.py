@@ -87,7 +87,7 @@ def initial_state(s, g, level, heading, heading_var, gyro_bias, roll_pitch=None)
     return InsState.from_geodetic(lat, lon, h, roll, pitch, heading, v_ned), heading_var
 
 
-def initial_variances(s, g, heading_var, crab=True, gyro_bias_var=None):
+def initial_variances(s, g, heading_var, crab=True, gyro_bias_var=None, gnss_bias_var=(0.0, 0.0, 0.0)):
     """Diagonal of the initial error covariance, em.N_INS long (the crab's 0 without the constraint; gyro_bias_var:
     of a bias measured standing still, else gyro_bias_sigma0)."""
     r = earth.mean_radius(g.lat) + g.alt
@@ -104,4 +104,4 @@ def initial_variances(s, g, heading_var, crab=True, gyro_bias_var=None):
     else:
         var[em.GAMMA], var[em.BETA] = heading_var, heading_var ** 2 / 2
     return np.append(var, (s.nhc.crab_var(0.0) if crab else 0.0, s.error.gyro_scale_sigma ** 2,
-                           s.wheel.scale_sigma ** 2, s.mount_yaw_sigma ** 2))
+                           s.wheel.scale_sigma ** 2, s.mount_yaw_sigma ** 2, *gnss_bias_var))

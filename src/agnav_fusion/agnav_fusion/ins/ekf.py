@@ -7,8 +7,9 @@ Joseph-form update with closed-loop correction, outage coasting and health stati
 [IMPL] A non-holonomic constraint with an augmented crab state (`constraints`) makes the heading observable on
 straight runs and bounds outage drift; an augmented z gyro scale-factor state, learnt in turns, keeps a U-turn from
 leaving its heading error (0.5 % of 180° is 0.9°); a wheel speed with an augmented scale state holds the speed in
-outages; an augmented IMU yaw mount (`mount`) turns the samples onto the vehicle axes; fix-difference velocities
-only seed the in-motion alignment (they lag and repeat the fixes); a filter whose fixes stay rejected re-aligns.
+outages; an augmented IMU yaw mount (`mount`) turns the samples onto the vehicle axes; augmented receiver slow-error
+states (`gnss_bias`) keep 5-10 Hz fixes from averaging their drift down; fix-difference velocities only seed the
+in-motion alignment (they lag and repeat the fixes); a filter whose fixes stay rejected re-aligns.
 """
 import copy
 import math
@@ -22,6 +23,7 @@ from . import chi2, earth, error_model as em, feedback
 from .constraints import CRAB, MOUNT, WHEEL, NonHolonomic, WheelSpeed
 from .history import ImuPeriod, SolutionHistory
 from .alignment import FixTrack, initial_state, initial_variances
+from .gnss_bias import GnssBias
 from .measurements import GnssPosition, GnssVelocity
 from .mechanization import Mechanization, _floats
 from .mount import YawMount
@@ -34,8 +36,8 @@ MAX_GAP_STEPS = 1000        # sub-steps bridging one IMU gap at most
 
 
 class InsEkf:
-    """Strapdown INS + 16-state error EKF + crab, z gyro scale, wheel scale and yaw mount (em.N_INS); feed `add_imu`
-    and `add_gnss` in arrival order."""
+    """Strapdown INS + 16-state error EKF + crab, z gyro scale, wheel scale, yaw mount and receiver bias (em.N_INS);
+    feed `add_imu` and `add_gnss` in arrival order."""
 
     def __init__(self, settings=None):
         self.s = settings or InsEkfSettings()
@@ -43,7 +45,8 @@ class InsEkf:
         self.p = None
         e = self.s.error        # crab noise: roll-dependent (propagate_covariance); scale: a slow random walk
         self.psd = np.append(e.psd(), (0.0, 2.0 * e.gyro_scale_sigma ** 2 / e.gyro_scale_tau,
-                                       self.s.wheel.scale_walk ** 2, 0.0))
+                                       self.s.wheel.scale_walk ** 2, 0.0, 0.0, 0.0, 0.0))
+        self.gnss_bias = GnssBias(self.s.gnss_bias)
         self.nhc = NonHolonomic(self.s.nhc, self.s.lever_base_frd) if self.s.nhc.enabled else None
         self.wheel = WheelSpeed(self.s.wheel, self.s.lever_base_frd)
         self.wheel_scale, self._wheel = 0.0, None   # a wheel reads (1 + scale) x speed; (t, speed, var) to fuse
@@ -66,7 +69,6 @@ class InsEkf:
         self._pending = []
         self._gates = {}
         self._corr = np.zeros(6)          # accumulated corrections (lat, lon, h, v_ned)
-        self.fix_drift_cov = np.zeros((3, 3))  # slowly drifting part of the latest fused fix's covariance (ENU)
         self._last_gnss_t = None
         self._fix_var_h = 0.0             # horizontal variance per axis of the previous fix [m^2]
         self._last_accept_t = None
@@ -193,6 +195,7 @@ class InsEkf:
         lat, _, alpha = st.geo()
         phi = em.transition(self.s.error, st.v, a_c, rho, omega, em.body_to_c(c_bc), lat, st.h, alpha, dt, len(p))
         q = (np.concatenate([self.psd, np.asarray(q_extra, dtype=float)]) if len(q_extra) else self.psd) * dt
+        self.gnss_bias.propagate(phi, q, dt)
         bgz = em.BG.start + 2
         phi[:, em.GYRO_SCALE] = phi[:, bgz] * self.omega_b[2]
         phi[bgz, em.GYRO_SCALE], phi[em.GYRO_SCALE, em.GYRO_SCALE] = 0.0, 1.0
@@ -211,6 +214,7 @@ class InsEkf:
         self.mech.gyro_scale += float(x[em.GYRO_SCALE])
         self.wheel_scale -= float(x[WHEEL])
         self.mount.correct(self.mech.state, float(x[MOUNT]))
+        self.gnss_bias.feedback(x)
         if self.nhc is not None:
             self.crab -= x[CRAB]
         p = feedback.azimuth_reset(p, x[em.GAMMA], x[em.BETA])
@@ -245,8 +249,10 @@ class InsEkf:
         k = min(len(p), em.N_INS)
         self.p = np.zeros((em.N_INS, em.N_INS))
         self.p[:k, :k] = np.asarray(p)[:k, :k]
-        augmented = (self.s.nhc.crab_var(mech.state.euler()[0]) if self.nhc else 0.0,    # CRAB .. MOUNT
-                     self.s.error.gyro_scale_sigma ** 2, self.s.wheel.scale_sigma ** 2, self.s.mount_yaw_sigma ** 2)
+        augmented = (self.s.nhc.crab_var(mech.state.euler()[0]) if self.nhc else 0.0,    # CRAB .. GNSS_BIAS
+                     self.s.error.gyro_scale_sigma ** 2, self.s.wheel.scale_sigma ** 2, self.s.mount_yaw_sigma ** 2,
+                     *self.gnss_bias.var)
+        self.gnss_bias.b = np.zeros(3)
         for i in range(max(k, CRAB), em.N_INS):     # the states a shorter P lacks: their initial variances
             self.p[i, i] = augmented[i - CRAB]
         if self.nhc:
@@ -281,7 +287,9 @@ class InsEkf:
         if init is None:
             return False
         self.mech = Mechanization(init[0], gyro_bias=bias)
-        self.p = np.diag(initial_variances(self.s, g, init[1], self.nhc is not None, still.var if still else None))
+        self.gnss_bias.reset(self.gnss_bias.initial_var(g))
+        self.p = np.diag(initial_variances(self.s, g, init[1], self.nhc is not None, still.var if still else None,
+                                           self.gnss_bias.var))
         self.crab, self._f = 0.0, None
         if self.nhc:
             self.nhc.reset()
@@ -358,9 +366,12 @@ class InsEkf:
             self.p[[em.RX, em.RY], [em.RX, em.RY]] += self._fix_var_h / r2
             self.p[em.H, em.H] += self._fix_var_h
         self._fix_var_h = var_h
+        g, self.p = self.gnss_bias.fix(g, self.p)
         models = self.models if use_vel else self.models[:1]
-        accepted = [lin for lin in (self.models[0].linearize(snap, alpha, g, self.n_states, self.p[em.GAMMA, em.GAMMA]),
-                                    *(m.linearize(snap, alpha, g, self.n_states) for m in models[1:])) if self.gated(lin)]
+        fix = self.models[0].linearize(snap, alpha, g, self.n_states, self.p[em.GAMMA, em.GAMMA])
+        self.gnss_bias.add_columns(fix, snap, alpha)
+        accepted = [lin for lin in (fix, *(m.linearize(snap, alpha, g, self.n_states) for m in models[1:]))
+                    if self.gated(lin)]
         position = any(lin.name == self.models[0].name for lin in accepted)
         if position:
             self._first_reject_t = None
@@ -376,8 +387,6 @@ class InsEkf:
         if not accepted:
             return
         self._last_accept_t = self.t
-        if position:
-            self.fix_drift_cov = self.s.gnss_correlated_fraction * np.asarray(g.pos_cov_enu, dtype=float)
         self._fuse(accepted)
 
     def _fuse(self, accepted):

@@ -19,7 +19,8 @@ GAMMA, BETA = 14, 15
 N_STATES = 16
 CRAB, GYRO_SCALE, WHEEL_SCALE, MOUNT_YAW = 16, 17, 18, 19  # augmented (ekf): crab (constraints), z gyro scale-factor
 #                   error [-], wheel speed scale error [-] (constraints.WheelSpeed), IMU yaw mount error [rad] (ekf)
-N_INS = 20
+GNSS_BIAS = slice(20, 23)   # the receiver's slow error, east, north and up [m] (gnss_bias)
+N_INS = 23
 V3 = (VX, VY, VZ)
 
 

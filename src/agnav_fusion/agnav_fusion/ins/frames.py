@@ -157,16 +157,15 @@ def ekf_base_link_state(ekf, mounts, plane, rate_var=(0.0, 0.0, 0.0)):
              (-sa * c0 + ca * c3, -sa * c1 + ca * c4, -sa * c2 + ca * c5), (c6, c7, c8))
     v0, v1, v2 = st.v.tolist()
     w0, w1, w2 = ekf.omega_b.tolist()
-    # position covariance: A P[:2, :2] A^T (A = c_axes(alpha) (R + h)) + P_hh + the fix's drifting part
+    # position covariance: A P[:2, :2] A^T (A = c_axes(alpha) (R + h)) + P_hh (the receiver's slow error is in P)
     rm, rn = radii(lat)
     big_r = math.sqrt(rm * rn) + h
     a00, a01, a10, a11 = ca * big_r, -sa * big_r, sa * big_r, ca * big_r
     (p00, p01), (p10, p11) = p[:2, :2].tolist()
     b00, b01, b10, b11 = a00 * p00 + a01 * p10, a00 * p01 + a01 * p11, a10 * p00 + a11 * p10, a10 * p01 + a11 * p11
-    (f00, f01, f02), (f10, f11, f12), (f20, f21, f22) = ekf.fix_drift_cov.tolist()
     d = p.diagonal().tolist()        # Python floats: numpy scalars cost more in every operation below
-    pos = ((f00 + (b00 * a00 + b01 * a01), f01 + (b00 * a10 + b01 * a11), f02),
-           (f10 + (b10 * a00 + b11 * a01), f11 + (b10 * a10 + b11 * a11), f12), (f20, f21, f22 + d[em.H]))
+    pos = ((b00 * a00 + b01 * a01, b00 * a10 + b01 * a11, 0.0),
+           (b10 * a00 + b11 * a01, b10 * a10 + b11 * a11, 0.0), (0.0, 0.0, d[em.H]))
     tx, ty, txy, tc = d[em.TX], d[em.TY], p.item(em.TX, em.TY), em.vehicle_heading_var(p)
     ta = 0.5 * (tx + ty) + math.hypot(0.5 * (tx - ty), txy) + mounts.tilt_var   # largest C-axis tilt + mount
     position, velocity, pose3 = _moved(lat, lon, h, c_ned, (ca * v0 - sa * v1, -sa * v0 - ca * v1, -v2),

@@ -6,6 +6,7 @@ import numpy as np
 
 from . import error_model as em
 from .constraints import NhcSettings, WheelSettings
+from .gnss_bias import GnssBiasSettings
 from .standstill import StandstillSettings
 
 
@@ -22,6 +23,7 @@ class InsEkfSettings:
     nhc: NhcSettings = field(default_factory=NhcSettings)
     wheel: WheelSettings = field(default_factory=WheelSettings)   # wheel or radar speed, when present
     standstill: StandstillSettings = field(default_factory=StandstillSettings)  # gyro bias before the alignment
+    gnss_bias: GnssBiasSettings = field(default_factory=GnssBiasSettings)  # the receiver's slow error as states
     initial_heading: float = 0.0               # best guess, clockwise from north [rad]
     initial_heading_sigma: float = math.inf    # inf: unknown heading (γ/β span the full circle)
     tilt_sigma: float = math.radians(2.0)      # rad, initial roll/pitch (the standing level, else accelerometers
@@ -43,9 +45,6 @@ class InsEkfSettings:
     max_gnss_lead: float = 5.0                 # s, GNSS epochs further ahead of the IMU time are rejected
     covariance_interval: float = 0.05          # s, P propagated at this period (Φ from the latest F);
                                                # 0 = every IMU sample; always brought current before updates
-    gnss_correlated_fraction: float = 0.5      # part of a fix's variance that drifts slowly (corrections, multipath):
-                                               # fused as white, it is not averaged down, so the latest fix's share
-                                               # is added to the published position covariance
 
 
 @dataclass

@@ -39,10 +39,8 @@ def solution_parts(ekf):
     a00, a01, a10, a11 = ca * big_r, -sa * big_r, sa * big_r, ca * big_r
     (p00, p01), (p10, p11) = p[:2, :2].tolist()
     b00, b01, b10, b11 = a00 * p00 + a01 * p10, a00 * p01 + a01 * p11, a10 * p00 + a11 * p10, a10 * p01 + a11 * p11
-    (f00, f01, f02), (f10, f11, f12), (f20, f21, f22) = ekf.fix_drift_cov.tolist()
-    pos = ((f00 + (b00 * a00 + b01 * a01), f01 + (b00 * a10 + b01 * a11), f02 + 0.0),
-           (f10 + (b10 * a00 + b11 * a01), f11 + (b10 * a10 + b11 * a11), f12 + 0.0),
-           (f20 + 0.0, f21 + 0.0, f22 + p[em.H, em.H]))
+    pos = ((b00 * a00 + b01 * a01, b00 * a10 + b01 * a11, 0.0),
+           (b10 * a00 + b11 * a01, b10 * a10 + b11 * a11, 0.0), (0.0, 0.0, p.item(em.H, em.H)))
     rx, ry, *_, rz = p[em.VX:em.VZ + 1, em.VX:em.VZ + 1].tolist()      # rows VX, VY, .., VZ
     vel = congruence3(((-sa, -ca, 0.0), (ca, -sa, 0.0), (0.0, 0.0, 1.0)),
                       ((rx[0], rx[1], rx[-1]), (ry[0], ry[1], ry[-1]), (rz[0], rz[1], rz[-1])))
