@@ -19,7 +19,7 @@ import numpy as np
 
 from agnav_fusion import kalman
 
-from . import chi2, earth, error_model as em, feedback
+from . import chi2, error_model as em, feedback
 from .constraints import CRAB, MOUNT, WHEEL, NonHolonomic, WheelSpeed
 from .history import ImuPeriod, SolutionHistory
 from .alignment import FixTrack, initial_state, initial_variances
@@ -70,7 +70,6 @@ class InsEkf:
         self._gates = {}
         self._corr = np.zeros(6)          # accumulated corrections (lat, lon, h, v_ned)
         self._last_gnss_t = None
-        self._fix_var_h = 0.0             # horizontal variance per axis of the previous fix [m^2]
         self._last_accept_t = None
         self._first_reject_t = None
         self.stats = {"imu": 0, "gnss": 0, "accepted": {}, "rejected": {}, "bridged": {}, "nis": {}}
@@ -360,13 +359,7 @@ class InsEkf:
         snap = self._history.at(g.t, self._corr)
         alpha = self.mech.state.alpha
         use_vel = g.vel_enu is not None and not g.vel_from_fixes
-        var_h = float(np.trace(g.pos_cov_enu[:2, :2])) / 2
-        if var_h < self._fix_var_h / 4:     # better receiver class (float -> fixed): the state still carries the
-            r2 = (earth.mean_radius(snap.lat) + snap.h) ** 2        # old fixes' slowly drifting error
-            self.p[[em.RX, em.RY], [em.RX, em.RY]] += self._fix_var_h / r2
-            self.p[em.H, em.H] += self._fix_var_h
-        self._fix_var_h = var_h
-        g, self.p = self.gnss_bias.fix(g, self.p)
+        g, self.p = self.gnss_bias.fix(g, self.p, snap)
         models = self.models if use_vel else self.models[:1]
         fix = self.models[0].linearize(snap, alpha, g, self.n_states, self.p[em.GAMMA, em.GAMMA])
         self.gnss_bias.add_columns(fix, snap, alpha)

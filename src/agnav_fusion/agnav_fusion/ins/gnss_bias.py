@@ -31,6 +31,7 @@ class GnssBias:
         self.b = np.zeros(3)
         self.var = np.zeros(3)  # m^2 per axis: the stationary variances of the current receiver class
         self._t = None
+        self.fix_var_h = 0.0    # horizontal variance per axis of the previous fix [m^2]
 
     @property
     def enabled(self):
@@ -48,8 +49,15 @@ class GnssBias:
     def reset(self, var):
         self.b, self.var, self._t = np.zeros(3), np.asarray(var, dtype=float), None
 
-    def fix(self, g, p):
-        """The fix corrected by the bias (white covariance) and P with a restarted bias on a class change."""
+    def fix(self, g, p, snap):
+        """The fix corrected by the bias (white covariance) and P (in place where it grows) with a restarted bias on
+        a class change; snap: the INS solution at the fix epoch."""
+        var_h = float(np.trace(g.pos_cov_enu[:2, :2])) / 2
+        if var_h < self.fix_var_h / 4:      # better receiver class (float -> fixed): the position still carries the
+            r2 = (earth.mean_radius(snap.lat) + snap.h) ** 2        # old fixes' slowly drifting error
+            p[[em.RX, em.RY], [em.RX, em.RY]] += self.fix_var_h / r2
+            p[em.H, em.H] += self.fix_var_h
+        self.fix_var_h = var_h
         if not self.enabled:
             return g, p
         white, var = self._split(g.pos_cov_enu)
