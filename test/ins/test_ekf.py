@@ -71,6 +71,32 @@ def test_jump_is_gated(field):
     assert np.linalg.norm(err.pos[window, :2], axis=1).max() < 0.3
 
 
+def test_realignment_takes_the_receivers_own_covariance(field):
+    """Fixes moved 20 m for good are rejected until reinit_after, then the filter re-aligns on them: the receiver
+    bias restarts at its share of the receiver's covariance (not of the white part left after the correction)."""
+    from agnav_fusion.ins import error_model as em
+    traj, (gyro, accel) = field
+    rng = np.random.default_rng(4)
+    g, a, _, _ = sy.MemsGrade().corrupt(gyro, accel, 0.01, rng)
+    gnss = sy.gnss_samples(traj, gyro, LEVER, sy.RTK_5HZ, rng)
+    for _, sample in gnss:
+        if sample.t >= 40.0:
+            sample.lat += 20.0 / 6.37e6
+    ekf = InsEkf(InsEkfSettings(lever_gnss_frd=LEVER, initial_heading=2.5))
+    initialize, started = ekf._initialize, []
+
+    def spy(fix, *args):
+        done = initialize(fix, *args)
+        if done:
+            started.append(ekf.p.diagonal()[em.GNSS_BIAS].copy())
+        return done
+    ekf._initialize = spy
+    sy.run_ins(ekf, traj, g, a, gnss)
+    assert ekf.stats["rejected"].get("reinitialized", 0) >= 1 and len(started) >= 2
+    var_h = sy.RTK_5HZ.sigma_h ** 2 + sy.RTK_5HZ.bias_h ** 2
+    np.testing.assert_allclose(started[-1][:2], ekf.s.gnss_bias.fraction * var_h, rtol=1e-9)
+
+
 def test_bad_input_is_rejected():
     ekf = InsEkf()
     assert ekf.add_imu(1.0, [0, 0, 0], [0, 0, -9.8]) is None

@@ -251,7 +251,7 @@ class InsEkf:
         augmented = (self.s.nhc.crab_var(mech.state.euler()[0]) if self.nhc else 0.0,    # CRAB .. GNSS_BIAS
                      self.s.error.gyro_scale_sigma ** 2, self.s.wheel.scale_sigma ** 2, self.s.mount_yaw_sigma ** 2,
                      *self.gnss_bias.var)
-        self.gnss_bias.b = np.zeros(3)
+        self.gnss_bias.reset(self.gnss_bias.var)
         for i in range(max(k, CRAB), em.N_INS):     # the states a shorter P lacks: their initial variances
             self.p[i, i] = augmented[i - CRAB]
         if self.nhc:
@@ -357,14 +357,12 @@ class InsEkf:
     def _update(self, g):
         self._propagate_covariance()
         snap = self._history.at(g.t, self._corr)
-        alpha = self.mech.state.alpha
-        use_vel = g.vel_enu is not None and not g.vel_from_fixes
-        g, self.p = self.gnss_bias.fix(g, self.p, snap)
-        models = self.models if use_vel else self.models[:1]
-        fix = self.models[0].linearize(snap, alpha, g, self.n_states, self.p[em.GAMMA, em.GAMMA])
-        self.gnss_bias.add_columns(fix, snap, alpha)
-        accepted = [lin for lin in (fix, *(m.linearize(snap, alpha, g, self.n_states) for m in models[1:]))
-                    if self.gated(lin)]
+        alpha, vel = self.mech.state.alpha, g.vel_enu is not None and not g.vel_from_fixes
+        fixed, self.p = self.gnss_bias.fix(g, self.p, snap)     # g itself stays the receiver's (re-alignment)
+        lins = [self.models[0].linearize(snap, alpha, fixed, self.n_states, self.p[em.GAMMA, em.GAMMA])]
+        self.gnss_bias.add_columns(lins[0], snap, alpha)
+        lins += [m.linearize(snap, alpha, fixed, self.n_states) for m in self.models[1:] if vel]
+        accepted = [lin for lin in lins if self.gated(lin)]
         position = any(lin.name == self.models[0].name for lin in accepted)
         if position:
             self._first_reject_t = None
