@@ -22,7 +22,7 @@ def test_bench_latency_reduced():
     assert 0 < out["imu_to_odom_p50_ms"] <= out["imu_to_odom_p99_ms"] <= out["imu_to_odom_max_ms"] < 1000
     assert 0 < out["bare_hop_p50_ms"] <= out["bare_hop_p99_ms"] < 1000
     assert 0 < out["graph_cpu_percent_100hz"] < 200
-    assert {"nav_sensor_module", "gnss_correction"} <= set(out["cpu_percent_per_node_100hz"])
+    assert "nav_sensor_module" in out["cpu_percent_per_node_100hz"]  # it publishes /gnss/fix_corrected too
     for layout in ("one_process", "processes"):
         for hz in ("100hz", "400hz"):
             r = out[layout][hz]

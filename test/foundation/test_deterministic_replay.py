@@ -84,4 +84,4 @@ def test_outputs_are_logged_at_the_time_of_their_input(recordings):
     assert [t for topic, t, _ in rec if topic == "/ground_truth/odometry"] == truth_in
     diagnostics = [t for topic, t, _ in rec if topic == "/diagnostics"]
     span = (imu[-1] - imu[0]) * 1e-9
-    assert 4 * (span - 1) <= len(diagnostics) <= 4 * (span + 2)  # player, recorder, module, gnss correction
+    assert 3 * (span - 1) <= len(diagnostics) <= 3 * (span + 2)  # player, recorder, module

@@ -114,3 +114,39 @@ def test_an_unknown_covariance_stays_unknown(ros):
     got, _ = run_node(ros, [(200.0, lat, lon, alt)], odom_stamps=[199.95], cov=(0.0,) * 9,
                       cov_type=NavSatFix.COVARIANCE_TYPE_UNKNOWN)
     assert len(got) == 1 and got[0].position_covariance_type == NavSatFix.COVARIANCE_TYPE_UNKNOWN
+
+
+def test_fix_correction_waits_for_the_attitude_of_the_epoch_and_leaves_the_input_alone():
+    """FixCorrection (shared by this node and the navigation node, which feeds it its own states): a fix waits until
+    the attitude stream passes its epoch, the published fix is a new message in base_link (the input, which other
+    subscribers share in one process, keeps its gnss_link header), and a fix whose attitude never comes is counted
+    once attitude_wait s of node time have passed."""
+    from sensor_msgs.msg import NavSatFix, NavSatStatus
+
+    from agnav_fusion.fix_correction import FixCorrection, FixCorrectionSettings
+
+    plane = LocalTangentPlane(*DATUM)
+    base = np.array([3.0, 4.0, 1.0])
+    antenna = base + Rotation.from_euler("ZYX", RPY[::-1]).apply(LEVER)
+    fix = NavSatFix(latitude=0.0, longitude=0.0, altitude=0.0)
+    fix.latitude, fix.longitude, fix.altitude = (float(v) for v in plane.to_geodetic(*antenna))
+    fix.header.stamp, fix.header.frame_id = to_stamp(200.0), "gnss_link"
+    fix.status.status = NavSatStatus.STATUS_FIX
+    fix.position_covariance = [1e-4, 0.0, 0.0, 0.0, 1e-4, 0.0, 0.0, 0.0, 4e-4]
+    fix.position_covariance_type = NavSatFix.COVARIANCE_TYPE_KNOWN
+    out, events, now = [], [], [0.0]
+    corr = FixCorrection(FixCorrectionSettings(), "base_link", lambda: LEVER, out.append, events.append,
+                         lambda: now[0])
+    quat = quaternion_from_euler(*RPY)
+    corr.add_attitude(199.99, quat, (1e-6, 1e-6, 1e-4))
+    corr.add_fix(fix)
+    assert out == [] and len(corr.pending) == 1  # the stream has not reached the epoch yet
+    corr.add_attitude(200.01, quat, (1e-6, 1e-6, 1e-4))
+    assert len(out) == 1 and events == ["corrected"]
+    assert np.allclose(plane.to_enu(out[0].latitude, out[0].longitude, out[0].altitude), base, atol=1e-3)
+    assert out[0].header.frame_id == "base_link" and fix.header.frame_id == "gnss_link"
+    fix.header.stamp = to_stamp(203.0)
+    corr.add_fix(fix)
+    now[0] = 2.5  # attitude_wait (2 s) of node time without an attitude near 203 s
+    corr.process()
+    assert events == ["corrected", "no_attitude"] and len(out) == 1

@@ -32,6 +32,4 @@ def generate_launch_description():
                  'ekf.crab_roll_gain': 0.0,
                  'gnss_timeout': 2.5,
              }, {'use_sim_time': use_sim_time}]),
-        Node(package='agnav_fusion', executable='gnss_correction_node', name='gnss_correction', output='screen',
-             parameters=[{'max_attitude_age': 0.5}, {'use_sim_time': use_sim_time}]),
     ])

@@ -15,7 +15,7 @@ base_link->imu_link rotation and translation, ->gnss_link and ->inclinometer_lin
 diagnostics and time. Nothing is published on /odometry/filtered or TF until heading and position are initialised
 (diagnostic "initialising"); rejected inputs are counted on /diagnostics over a recent window; outputs never hold NaN.
 """
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from agnav_common.diagnostics import ERROR, OK, WARN, Diagnostics
@@ -33,6 +33,7 @@ from rclpy.node import Node
 from sensor_msgs.msg import Imu, NavSatFix
 
 from agnav_fusion.backends import ESTIMATOR_DOC, make_backend, settings_for
+from agnav_fusion.fix_correction import FixCorrection, FixCorrectionSettings
 from agnav_fusion.navigation_output import body_velocity, map_datum_message, pose_transforms
 from agnav_fusion.odom_frame import OdomFrame
 from agnav_fusion.front_end import Urgent
@@ -88,6 +89,8 @@ class NavNodeSettings:
     inclinometer_frame: str = "inclinometer_link"  # inclinometer (lever arm from TF; else the IMU's)
     frame_prefix: str = ""                # put before every frame but map, e.g. "tractor1/" (several vehicles, one TF)
     publish_tf: bool = True               # publish map->odom->base_link
+    publish_fix_corrected: bool = True    # publish /gnss/fix_corrected (each fix at base_link, no gnss_correction_node)
+    fix_correction: FixCorrectionSettings = field(default_factory=FixCorrectionSettings)
     imu_timeout: float = 0.5              # s of node time without an IMU message: diagnostics say stale
 
 
@@ -129,11 +132,14 @@ class NavSensorModuleNode(Node):
         subscribe_input(self, Imu, "imu/data_raw", self.on_imu)
         if front.tilt_source == "inclinometer" and not self.pipeline.strapdown:
             subscribe_input(self, Inclination, "inclinometer", self.pipeline.on_inclinometer)
+        self.fix_correction = None
         if self.uses_gnss:
             self.odom_pub = create_output(self, Odometry, "odometry/filtered", PUBLISHER_QOS)
             self.imu_pub = create_output(self, Imu, "imu/data", PUBLISHER_QOS)  # the fused attitude
             self.datum_pub = self.create_publisher(NavSatFix, "map_datum", LATCHED_QOS)
-            subscribe_input(self, NavSatFix, "gnss/fix", self.pipeline.on_fix)
+            if node_settings.publish_fix_corrected:
+                self.fix_correction = self.correct_fixes(node_settings)
+            subscribe_input(self, NavSatFix, "gnss/fix", self.on_fix)
             subscribe_input(self, TwistWithCovarianceStamped, "gnss/vel", self.pipeline.on_velocity)
             subscribe_input(self, Odometry, "wheel/odometry", self.pipeline.on_wheel)
             if self.pipeline.raw is not None:
@@ -146,6 +152,26 @@ class NavSensorModuleNode(Node):
         self.diag.add("state", self.check_state)
         self.urgent = Urgent()
         self.backend.guard.on_problem = self.on_problem
+
+    def correct_fixes(self, node_settings):
+        """/gnss/fix_corrected from the attitude of the published states (what gnss_correction_node does with a
+        second subscription to them). Its counts stay out of the diagnostics: a fix it leaves uncorrected is one the
+        pipeline counts already (bad fix or stamp, missing TF), one before the state is published (initialising),
+        or one in an IMU gap (stale IMU)."""
+        pub = create_output(self, NavSatFix, "gnss/fix_corrected", PUBLISHER_QOS)
+        correction = FixCorrection(node_settings.fix_correction, self.frames["base"], self.gnss_lever, pub.publish,
+                                   lambda event: None, self.node_time)
+        self.create_timer(1.0, correction.process)  # fixes that waited attitude_wait s in vain
+        return correction
+
+    def gnss_lever(self):
+        mount = self.tf.lookup(self.frames["base"], self.frames["gnss"])
+        return None if mount is None else mount[0]
+
+    def on_fix(self, msg):
+        self.pipeline.on_fix(msg)
+        if self.fix_correction is not None:
+            self.fix_correction.add_fix(msg)
 
     def subscribe_raw(self):
         """The raw GNSS inputs of a raw_gnss backend, with the QoS their drivers publish with."""
@@ -196,8 +222,11 @@ class NavSensorModuleNode(Node):
         self.odom_pub.publish(odometry_message(s, self.frames, stamp, quat))
         self.imu_pub.publish(imu_message(s, self.frames["base"], stamp=stamp, quat=quat))
         if self.publish_tf:  # REP-105: odom->base_link continuous, the fixes' corrections in map->odom
-            xyz, quat, map_xyz, map_quat = self.odom_frame.update(s.t, s.position, s.rpy, s.speed, s.rates[2])
-            self.tf_out.send(pose_transforms(self.frames, stamp, xyz, quat, (map_xyz, map_quat)))
+            xyz, odom_quat, map_xyz, map_quat = self.odom_frame.update(s.t, s.position, s.rpy, s.speed, s.rates[2])
+            self.tf_out.send(pose_transforms(self.frames, stamp, xyz, odom_quat, (map_xyz, map_quat)))
+        if self.fix_correction is not None:
+            c = s.pose_cov
+            self.fix_correction.add_attitude(s.t, quat, (c[3, 3], c[4, 4], c[5, 5]))
 
     def check_inputs(self):
         """Rejections over the guard's recent window (IMU time) and IMU staleness (node time): the present."""
