@@ -72,3 +72,22 @@ def test_the_accelerometer_bias_reads_as_the_roll_the_limits_name():
     apparent = math.degrees(math.atan2(f[1], f[2]))
     assert abs(apparent - math.degrees(np.mean(rolls)) - limits["accel_roll_deg"]) < 0.02
     assert abs(limits["accel_roll_deg"]) > 0.3  # the run's roll error cannot be smaller on its straight
+
+
+def test_a_run_config_is_the_shipped_one_with_the_bags_mounts_and_no_inclinometer_zeros(tmp_path):
+    """The campaign's config: the shipped nsm config, its mounts from the bag's /tf_static, and no inclinometer
+    zeros (the config's calibrate the bundled bag's sensors; a drawn sensor's zero error is its whole zero error)."""
+    import yaml
+
+    from agnav_sim_eval.bench.campaign import CONFIGS, config_for
+
+    bag = REPO_ROOT / "bags" / "asphalt_loop"
+    shipped = yaml.safe_load((REPO_ROOT / "src" / "agnav_bringup" / "config" / "nsm.yaml").read_text())
+    run = yaml.safe_load(open(config_for("thesis", bag, tmp_path)).read())
+    assert CONFIGS["thesis"] == "nsm" and run["bag"] == str(bag)
+    assert {(t["parent"], t["child"]) for t in run["static_transforms"]} >= {("base_link", "gnss_link"),
+                                                                            ("base_link", "imu_link")}
+    nav, shipped_nav = run["nodes"][0]["parameters"], shipped["nodes"][0]["parameters"]
+    assert shipped_nav["incl_zero_deg"] != [0.0, 0.0] and nav["incl_zero_deg"] == [0.0, 0.0]
+    assert {k: v for k, v in nav.items() if k != "incl_zero_deg"} == {
+        k: v for k, v in shipped_nav.items() if k != "incl_zero_deg"}

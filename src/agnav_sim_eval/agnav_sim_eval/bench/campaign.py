@@ -5,7 +5,9 @@ randomized scenarios through the shipped graph.
 Seeds S..S+N-1 each draw a scenario (agnav_sim_eval.sim.random_scenarios: sensor set, receiver, surface, route,
 speed, mounts, sensor errors), which is simulated into a bag and replayed by `agnav run CONFIG --bag B --record OUT`
 with the shipped default config of its sensor set (thesis package: `nsm`; MEMS IMU: `ins`), its mounts replaced by
-the bag's /tf_static (nothing else changes). Each run is scored against truth, against its own receiver floor (the
+the bag's /tf_static and its inclinometer zeros (`incl_zero_deg`: `agnav calibrate` of the bundled bag's sensors)
+set to none, as for any other uncalibrated sensor: a drawn inclinometer's zero error is its whole zero error
+(nothing else changes). Each run is scored against truth, against its own receiver floor (the
 RMS horizontal error of its fixes moved to base_link with the true attitude: what a perfect filter fed those fixes
 reaches) and against its own covariance (share of samples within 3σ, per axis, the worst axis counted, over the
 whole run). The floor exists while fixes arrive, so the floor ratios leave out GNSS outages (a pause of the fixes
@@ -59,10 +61,14 @@ WORST = 5
 
 
 def config_for(sensor_set, bag, tmp):
-    """The shipped config of the sensor set with its static_transforms taken from the bag's /tf_static."""
+    """The shipped config of the sensor set with its static_transforms taken from the bag's /tf_static and no
+    inclinometer zeros (those of the config calibrate the bundled bag's sensors, not the drawn ones)."""
     cfg = load_config(CONFIGS[sensor_set])
     raw = yaml.safe_load(cfg.path.read_text())
     raw["static_transforms"] = static_transforms(bag)
+    for node in raw["nodes"]:
+        if "incl_zero_deg" in node.get("parameters", {}):
+            node["parameters"]["incl_zero_deg"] = [0.0, 0.0]
     raw["bag"] = str(bag)
     path = Path(tmp) / f"{cfg.path.stem}_{Path(bag).name}.yaml"
     path.write_text(yaml.safe_dump(raw, sort_keys=False))
