@@ -1,7 +1,8 @@
 """Navigation sensor module node (SPEC §6.3): /imu/data_raw + /inclinometer + /gnss/fix (+ /gnss/vel, + wheel or
 radar speed on /wheel/odometry: nav_msgs/Odometry twist.linear.x with its covariance)
 -> /odometry/filtered at the IMU rate (frame map, child base_link, pose + twist covariance), TF map->odom->base_link
-(REP-105: odom->base_link dead-reckoned and continuous, the fixes' corrections in map->odom), /map_datum (latched).
+(REP-105: odom->base_link dead-reckoned and continuous, the fixes' corrections in map->odom), /map_datum (latched),
+/gnss/fix_corrected (each fix moved to base_link with the published attitude of its epoch: agnav_fusion.fix_correction).
 
 A thin wrapper: every message goes unchanged to agnav_fusion.pipeline.NavigationPipeline (front end + the backend
 its `estimator` parameter selects in agnav_fusion.backends: NavSensorModule for `agnav`/`thesis`, the GNSS/INS
