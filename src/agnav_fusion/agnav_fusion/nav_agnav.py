@@ -194,15 +194,17 @@ class AgnavEstimator:
         nav = hist[k].nav
         if speed is None or vel_var is None or nav is None:
             return 0.0
-        miss = speed - nav[0][IV]
-        sigmas = abs(miss) / math.sqrt(vel_var + nav[1][IV, IV])
+        miss, sigma = speed - nav[0][IV], math.sqrt(vel_var + nav[1][IV, IV])
+        sigmas = abs(miss) / sigma
         for tilt in (self.roll_filter, self.pitch_filter):
             if sigmas > s.tilt_revert_sigma:
                 tilt.revert()
             if sigmas <= s.tilt_keep_sigma or sigmas > s.tilt_revert_sigma:
                 tilt.checkpoint()
         news = doppler and sigmas > s.tilt_keep_sigma and t > self.last_fix_t
-        return miss / min(t - self.last_fix_t, 1.0) if news else 0.0
+        # the part of the miss the noise cannot explain (at 5-10 Hz, noise over one interval reads as metres per s^2)
+        return math.copysign(abs(miss) - s.tilt_keep_sigma * sigma, miss) / min(t - self.last_fix_t, 1.0) if news \
+            else 0.0
 
     def _fuse_fix(self, k, t, xy, R, v_ref, vel_var, speed, started, doppler, differenced):
         s, hist, ekf = self.m.settings, self.m.history, self.ekf
