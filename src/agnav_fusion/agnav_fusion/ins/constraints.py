@@ -70,6 +70,19 @@ class WheelSettings:
         return max(var if var and var > 0 else 0.0, self.speed_sigma ** 2) + (self.slip_sigma * speed) ** 2
 
 
+@dataclass
+class SpeedHoldSettings:
+    """A tractor keeps its speed: in a GNSS outage the INS's own change of base_link's forward speed between two
+    constraint updates is measured as zero, up to the speed's random walk; what the accelerometer bias and the pitch
+    error add to that change is then learnt instead of integrated into the position. A real speed change (a stop, a
+    start) fails the gate and is left to the accelerometers."""
+
+    enabled: bool = True                     # in outages, measure the INS speed change as a tractor's random walk
+    after: float = 2.0                       # s without an accepted GNSS epoch before it applies
+    walk: float = 0.02                       # m/s/sqrt(s), the speed's random walk (throttle, load, slip)
+    white: float = 0.005                     # m/s, white part of each change (gyro noise through the lever, bumps)
+
+
 def _base_rows(c_b_cbar, v_c, omega_b, lever):
     """base_link body velocity (FRD) and its rows d v_b / d x over _BASE_COLS (written out on floats; the matrix
     form is in test/ins/test_scalar_paths.py): C -> B for the velocity, the tilt correction rotating C-bar by
@@ -159,3 +172,28 @@ class NonHolonomic:
 
 
 _BASE_COLS = np.array([em.VX, em.VY, em.VZ, em.TX, em.TY, em.BG.start, em.BG.start + 1, em.BG.start + 2])
+
+
+class SpeedHold:
+    """Row: the computed change of base_link's forward speed since the last constraint update (`prev`), ~ 0. Its
+    error over dt is dt times the forward projection of the velocity-error dynamics (F's velocity rows)."""
+
+    name = "speed_hold"
+
+    def __init__(self, settings, lever_base_frd):
+        self.s = settings
+        self.lever = tuple(float(v) for v in lever_base_frd)   # IMU -> base_link, body FRD [m]
+        self.prev = None    # (t, forward speed after the last constraint update)
+
+    def forward(self, c_b_cbar, v_c, omega_b):
+        return _base_rows(c_b_cbar, v_c, omega_b, self.lever)[0][0]
+
+    def linearize(self, c_b_cbar, v_c, omega_b, f_velocity, t, n_states):
+        """f_velocity: F's rows VX, VY, VZ (3 x em.N_STATES)."""
+        (vb0, _, _), (j0, _, _) = _base_rows(c_b_cbar, v_c, omega_b, self.lever)
+        t0, v0 = self.prev
+        dt = t - t0
+        h = np.zeros((1, n_states))
+        h[0, :em.N_STATES] = dt * (j0[0] * f_velocity[0] + j0[1] * f_velocity[1] + j0[2] * f_velocity[2])
+        r = self.s.walk ** 2 * dt + self.s.white ** 2
+        return Linearized(self.name, np.array([vb0 - v0]), h, np.array([[r]]))

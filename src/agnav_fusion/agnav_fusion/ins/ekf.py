@@ -6,10 +6,11 @@ compensation (solution history, fixes applied against the INS state at their epo
 Joseph-form update with closed-loop correction, outage coasting and health statistics.
 [IMPL] A non-holonomic constraint with an augmented crab state (`constraints`) makes the heading observable on
 straight runs and bounds outage drift; an augmented z gyro scale-factor state, learnt in turns, keeps a U-turn from
-leaving its heading error (0.5 % of 180° is 0.9°); a wheel speed with an augmented scale state holds the speed in
-outages; an augmented IMU yaw mount (`mount`) turns the samples onto the vehicle axes; augmented receiver slow-error
-states (`gnss_bias`) keep 5-10 Hz fixes from averaging their drift down; fix-difference velocities only seed the
-in-motion alignment (they lag and repeat the fixes); a filter whose fixes stay rejected re-aligns.
+leaving its heading error (0.5 % of 180° is 0.9°); a wheel speed with an augmented scale state, or else a tractor's
+steady speed (`SpeedHold`), holds the speed in outages; an augmented IMU yaw mount (`mount`) turns the samples onto
+the vehicle axes; augmented receiver slow-error states (`gnss_bias`) keep 5-10 Hz fixes from averaging their drift
+down; fix-difference velocities only seed the in-motion alignment (they lag and repeat the fixes); a filter whose
+fixes stay rejected re-aligns.
 """
 import copy
 import math
@@ -20,7 +21,7 @@ import numpy as np
 from agnav_fusion import kalman
 
 from . import chi2, error_model as em, feedback
-from .constraints import CRAB, MOUNT, WHEEL, NonHolonomic, WheelSpeed
+from .constraints import CRAB, MOUNT, WHEEL, NonHolonomic, SpeedHold, WheelSpeed
 from .history import ImuPeriod, SolutionHistory
 from .alignment import FixTrack, initial_state, initial_variances
 from .gnss_bias import GnssBias
@@ -49,6 +50,7 @@ class InsEkf:
         self.gnss_bias = GnssBias(self.s.gnss_bias)
         self.nhc = NonHolonomic(self.s.nhc, self.s.lever_base_frd) if self.s.nhc.enabled else None
         self.wheel = WheelSpeed(self.s.wheel, self.s.lever_base_frd)
+        self.hold = SpeedHold(self.s.speed_hold, self.s.lever_base_frd) if self.s.speed_hold.enabled else None
         self.wheel_scale, self._wheel = 0.0, None   # a wheel reads (1 + scale) x speed; (t, speed, var) to fuse
         self.crab = 0.0
         self.mount = YawMount()           # the IMU's yaw mount estimate: the samples are turned by it
@@ -256,6 +258,8 @@ class InsEkf:
             self.p[i, i] = augmented[i - CRAB]
         if self.nhc:
             self.nhc.reset(roll_lag, mech.state.euler()[0], self.heading_sigma())
+        if self.hold:
+            self.hold.prev = None
         self.omega_b = np.zeros(3) if omega_b is None else np.array(omega_b, dtype=float)
         self._f, self._cov_dt, self._gap_var, self._pending, self._corr = None, 0.0, None, [], np.zeros(6)
         self._history.clear()
@@ -292,6 +296,8 @@ class InsEkf:
         self.crab, self._f = 0.0, None
         if self.nhc:
             self.nhc.reset()
+        if self.hold:
+            self.hold.prev = None
         self._history.clear()
         self._snapshot()
         return True
@@ -350,9 +356,15 @@ class InsEkf:
             lins.append(self.wheel.linearize(rows, v, self.omega_b, self.wheel_scale, *self._wheel[1:],
                                              self.n_states))
         self._wheel = None
+        if nhc and self.hold and self.hold.prev and self.gnss_age() > self.s.speed_hold.after:   # an outage
+            (rho, omega, a_c, c_bc), (lat, _, alpha) = self._f, self.mech.state.geo()
+            f = em.dynamics(self.s.error, v, a_c, rho, omega, em.body_to_c(c_bc), lat, self.mech.state.h, alpha)
+            lins.append(self.hold.linearize(rows, v, self.omega_b, f[list(em.V3)], self.t, self.n_states))
         accepted = [lin for lin in lins if self.gated(lin)]
         if accepted:
             self._fuse(accepted)
+        if nhc and self.hold is not None:   # the speed the next change is counted from
+            self.hold.prev = (self.t, self.hold.forward(self.mech.state.dcm_rows(), self.mech.state.v, self.omega_b))
 
     def _update(self, g):
         self._propagate_covariance()

@@ -5,7 +5,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from . import error_model as em
-from .constraints import NhcSettings, WheelSettings
+from .constraints import NhcSettings, SpeedHoldSettings, WheelSettings
 from .gnss_bias import GnssBiasSettings
 from .standstill import StandstillSettings
 
@@ -22,6 +22,7 @@ class InsEkfSettings:
                                                # the vehicle, the accelerometers the IMU); this is its initial sigma
     nhc: NhcSettings = field(default_factory=NhcSettings)
     wheel: WheelSettings = field(default_factory=WheelSettings)   # wheel or radar speed, when present
+    speed_hold: SpeedHoldSettings = field(default_factory=SpeedHoldSettings)  # in outages: the speed is kept
     standstill: StandstillSettings = field(default_factory=StandstillSettings)  # gyro bias before the alignment
     gnss_bias: GnssBiasSettings = field(default_factory=GnssBiasSettings)  # the receiver's slow error as states
     initial_heading: float = 0.0               # best guess, clockwise from north [rad]

@@ -1,4 +1,4 @@
-"""`agnav bench cost [--repeats N] [--idle-ms MS] [--json]`: cost per IMU message of every navigation backend on this machine.
+"""`agnav bench cost [--repeats N] [--idle-ms MS] [--json]`: cost per IMU message of every navigation backend.
 
 Every backend runs as shipped: a simulated run's own ROS messages (bag order) through nav_sensor_module_node's
 NavigationPipeline with its config's parameters (agnav_sim_eval.offline), so the figure includes the front end
