@@ -12,7 +12,6 @@ the vehicle axes; augmented receiver slow-error states (`gnss_bias`) keep 5-10 H
 down; fix-difference velocities only seed the in-motion alignment (they lag and repeat the fixes); a filter whose
 fixes stay rejected re-aligns.
 """
-import copy
 import math
 from collections import deque
 
@@ -22,6 +21,7 @@ from agnav_fusion import kalman
 
 from . import chi2, error_model as em, feedback
 from .constraints import CRAB, MOUNT, WHEEL, NonHolonomic, SpeedHold, WheelSpeed
+from .handover import HandOver
 from .history import ImuPeriod, SolutionHistory
 from .alignment import FixTrack, initial_state, initial_variances
 from .gnss_bias import GnssBias
@@ -36,7 +36,7 @@ UNINITIALIZED, ALIGNING, ALIGNED = "uninitialized", "aligning", "aligned"
 MAX_GAP_STEPS = 1000        # sub-steps bridging one IMU gap at most
 
 
-class InsEkf:
+class InsEkf(HandOver):
     """Strapdown INS + 16-state error EKF + crab, z gyro scale, wheel scale, yaw mount and receiver bias (em.N_INS);
     feed `add_imu` and `add_gnss` in arrival order."""
 
@@ -232,39 +232,6 @@ class InsEkf:
         self.stats["nis"][lin.name] = (n + 1, total + nis)
         self._stat("accepted", lin.name)
         return True
-
-    def export_state(self):
-        """Hand-over (SPEC §7.9): copies of the mechanization, error covariance (n_states, propagated to t), crab,
-        time, rate and yaw mount."""
-        self._propagate_covariance()
-        return {"mech": copy.deepcopy(self.mech), "p": self.p.copy(), "crab": self.crab, "t": self.t,
-                "omega_b": self.omega_b.copy(), "mount_yaw": self.mount.yaw,
-                "roll_lag": self.nhc.roll_lag if self.nhc else None}
-
-    def adopt(self, mech, p, crab=0.0, t=None, omega_b=None, mount_yaw=0.0, roll_lag=None):
-        """Take over an INS state (e.g. export_state() of a tightly coupled filter's INS): P's first n_states
-        rows/columns (a 16x16 P gets the crab's steady variance and the scale's initial one), the crab's terrain roll
-        (None: from the next roll); the solution history restarts here."""
-        self.mech, self.crab, self.t = mech, crab, t
-        self.mount.set(mount_yaw)
-        k = min(len(p), em.N_INS)
-        self.p = np.zeros((em.N_INS, em.N_INS))
-        self.p[:k, :k] = np.asarray(p)[:k, :k]
-        augmented = (self.s.nhc.crab_var(mech.state.euler()[0]) if self.nhc else 0.0,    # CRAB .. GNSS_BIAS
-                     self.s.error.gyro_scale_sigma ** 2, self.s.wheel.scale_sigma ** 2, self.s.mount_yaw_sigma ** 2,
-                     *self.gnss_bias.var)
-        self.gnss_bias.reset(self.gnss_bias.var)
-        for i in range(max(k, CRAB), em.N_INS):     # the states a shorter P lacks: their initial variances
-            self.p[i, i] = augmented[i - CRAB]
-        if self.nhc:
-            self.nhc.reset(roll_lag, mech.state.euler()[0], self.heading_sigma())
-        if self.hold:
-            self.hold.prev = None
-        self.omega_b = np.zeros(3) if omega_b is None else np.array(omega_b, dtype=float)
-        self._f, self._cov_dt, self._gap_var, self._pending, self._corr = None, 0.0, None, [], np.zeros(6)
-        self._history.clear()
-        self._snapshot()
-        self._last_accept_t = t
 
     # ----------------------------------------------------------------- internals
     def _gate(self, dof):
