@@ -6,11 +6,11 @@ compensation (solution history, fixes applied against the INS state at their epo
 Joseph-form update with closed-loop correction, outage coasting and health statistics.
 [IMPL] A non-holonomic constraint with an augmented crab state (`constraints`) makes the heading observable on
 straight runs and bounds outage drift; an augmented z gyro scale-factor state, learnt in turns, keeps a U-turn from
-leaving its heading error (0.5 % of 180° is 0.9°); a wheel speed with an augmented scale state, or else a tractor's
-steady speed (`SpeedHold`), holds the speed in outages; an augmented IMU yaw mount (`mount`) turns the samples onto
-the vehicle axes; augmented receiver slow-error states (`gnss_bias`) keep 5-10 Hz fixes from averaging their drift
-down; fix-difference velocities only seed the in-motion alignment (they lag and repeat the fixes); a filter whose
-fixes stay rejected re-aligns.
+leaving its heading error (0.5 % of 180° is 0.9°); a wheel speed with an augmented scale state and a tractor's
+steady speed (`SpeedHold`; a real speed change fails its gate) hold the speed in outages; an augmented IMU yaw mount
+(`mount`) turns the samples onto the vehicle axes; augmented receiver slow-error states (`gnss_bias`) keep 5-10 Hz
+fixes from averaging their drift down; fix-difference velocities only seed the in-motion alignment (they lag and
+repeat the fixes); a filter whose fixes stay rejected re-aligns.
 """
 import math
 from collections import deque
@@ -330,7 +330,7 @@ class InsEkf(HandOver):
         accepted = [lin for lin in lins if self.gated(lin)]
         if accepted:
             self._fuse(accepted)
-        if nhc and self.hold is not None:   # the speed the next change is counted from
+        if nhc and self.hold:   # the speed the next change is counted from
             self.hold.prev = (self.t, self.hold.forward(self.mech.state.dcm_rows(), self.mech.state.v, self.omega_b))
 
     def _update(self, g):

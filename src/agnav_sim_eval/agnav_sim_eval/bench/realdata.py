@@ -249,8 +249,8 @@ def markdown(results):
         lines += ["", f"Simulated {name} through `agnav run {r['config']}` (the `make run` graph, against truth): "
                   + ", ".join(f"{k} RMS {_f(r[k]['rms'])} (max {_f(r[k]['max'])})" for k in KEYS)
                   + f"; replay {r['duration_s']:.0f} s in {r['wall_s']:.0f} s wall = **{r['x_real_time']:.1f} × real "
-                  "time** (one process: the graph's nodes, bag player and recorder on one EventsExecutor; the machine's "
-                  "load at the time counts)."]
+                  "time** (one process: the graph's nodes, bag player and recorder on one EventsExecutor; the "
+                  "machine's load at the time counts)."]
     if "test1" in results:
         d, f = results["test1"]["end_displacement_m"], results["test1"]["fix_end_displacement_m"]
         lines += ["", f"test1 end point: robot_localization's own regression (its EKF on wheel-odometry velocity + "
