@@ -61,6 +61,10 @@ class AgnavEstimator:
         # the y gyro's bias (the pitch filter's) enters the yaw rate by sin(roll): a heading drift on cross slopes
         droll, dpitch, dyaw = euler_rates(gyro, roll0, -pitch0, self.pitch_filter.bias)
         rate_cw = -dyaw
+        if self.ekf.x is not None:  # the heading-rate bias b the EKF learns is the z gyro's (r reads r_true - b),
+            b = float(self.ekf.x[IB])  # which enters the tilt rates by the roll: on a cross slope it tilts the pitch
+            droll -= b * math.cos(roll0) * math.tan(pitch0)
+            dpitch -= b * math.sin(roll0)
         lever_acc = self._lever_acceleration(gyro, prev, dt)
         acc, acc_var = self._kinematic_acceleration(gyro, lever_acc) if s.accel_compensation else ((0.0,) * 3,
                                                                                                   (0.0, 0.0))
