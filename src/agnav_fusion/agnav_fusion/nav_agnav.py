@@ -14,7 +14,7 @@ from agnav_common.frames import cross_floats
 
 from agnav_fusion.attitude_kf import AttitudeKF
 from agnav_fusion.heading_chord import HeadingChord
-from agnav_fusion.nav_ekf import IA, IB, IC, IPHI, IR, IV, N, NavEKF
+from agnav_fusion.nav_ekf import IA, IB, IC, IPHI, IR, IS, IV, N, NavEKF
 from agnav_fusion.nav_settings import GRAVITY, euler_rates
 from agnav_fusion.tilt_correction import antenna_offset, offset_heading_jacobian, tilt_variance
 
@@ -61,13 +61,16 @@ class AgnavEstimator:
         # the y gyro's bias (the pitch filter's) enters the yaw rate by sin(roll): a heading drift on cross slopes
         droll, dpitch, dyaw = euler_rates(gyro, roll0, -pitch0, self.pitch_filter.bias)
         rate_cw = -dyaw
-        if self.ekf.x is not None:  # the heading-rate bias b the EKF learns is the z gyro's (r reads r_true - b),
-            b = float(self.ekf.x[IB])  # which enters the tilt rates by the roll: on a cross slope it tilts the pitch
-            droll -= b * math.cos(roll0) * math.tan(pitch0)
-            dpitch -= b * math.sin(roll0)
+        yaw_rate = gyro[2]
+        if self.ekf.x is not None:  # the heading-rate bias b and scale error s the EKF learns are the z gyro's
+            # (r_true = (1 + s) r + b), which enter the tilt rates by the roll: on a cross slope they tilt the pitch
+            dr = float(self.ekf.x[IS]) * yaw_rate + float(self.ekf.x[IB])
+            droll -= dr * math.cos(roll0) * math.tan(pitch0)
+            dpitch -= dr * math.sin(roll0)
+            yaw_rate += dr
         lever_acc = self._lever_acceleration(gyro, prev, dt)
-        acc, acc_var = self._kinematic_acceleration(gyro, lever_acc) if s.accel_compensation else ((0.0,) * 3,
-                                                                                                  (0.0, 0.0))
+        acc, acc_var = self._kinematic_acceleration(yaw_rate, lever_acc) if s.accel_compensation else ((0.0,) * 3,
+                                                                                                      (0.0, 0.0))
         # a pendulum reads roll + a_y/g and (REP-103) pitch - a_x/g, i.e. thesis nose-up pitch + a_x/g
         roll = self.roll_filter.update(droll, roll_incl, dt, acc[1] / GRAVITY, acc_var[1] / GRAVITY ** 2)
         pitch = self.pitch_filter.update(-dpitch, pitch_incl, dt, acc[0] / GRAVITY, acc_var[0] / GRAVITY ** 2)
@@ -124,9 +127,10 @@ class AgnavEstimator:
         a, b = cross_floats(alpha, r), cross_floats(gyro, cross_floats(gyro, r))
         return a[0] + b[0], a[1] + b[1], a[2] + b[2]
 
-    def _kinematic_acceleration(self, gyro, lever_acc):
-        """Body (FLU) acceleration of the inclinometer: forward (accelerometer or A state), centripetal V*wz,
-        and the lever-arm terms; -> (acceleration, variances of its forward and lateral parts)."""
+    def _kinematic_acceleration(self, wz, lever_acc):
+        """Body (FLU) acceleration of the inclinometer: forward (accelerometer or A state), centripetal V*wz (wz:
+        the corrected z gyro rate), and the lever-arm terms; -> (acceleration, variances of its forward and lateral
+        parts)."""
         ekf = self.ekf
         if ekf.x is None or self.still:  # standing still: no acceleration but the lever's (the gyro's sway)
             return lever_acc, (0.0, 0.0)
@@ -134,7 +138,6 @@ class AgnavEstimator:
             accel, accel_var = self.fix_accel, 0.0
         else:
             accel, accel_var = float(ekf.x[IA]), float(ekf.P[IA, IA])
-        wz = gyro[2]
         return ((accel + lever_acc[0], float(ekf.x[IV]) * wz + lever_acc[1], 0.0 + lever_acc[2]),
                 (accel_var, float(ekf.P[IV, IV]) * wz ** 2))
 
