@@ -88,6 +88,12 @@ class NavEKF:
         self.bias_changed = not 0.25 * old <= self.gnss_bias_var <= 4.0 * old
         return cov - self.gnss_bias_var * np.eye(2), self.gnss_bias_var
 
+    def bias_change_variance(self, interval):
+        """Per-axis variance (m^2) of the receiver's slow error's change over `interval` s: what a difference of
+        two fixes carries besides their white parts (an RTK float error wanders decimetres in seconds)."""
+        tau = self.settings.gnss_bias_tau
+        return -2.0 * self.gnss_bias_var * math.expm1(-interval / tau) if tau > 0 else 0.0
+
     def restart_bias(self):
         """The receiver's error class changed (RTK fixed <-> float, DGPS): the slow error learnt is its old one, the
         new one starts at zero with the new variance (the position keeps what it knew). A rise matters as much as a

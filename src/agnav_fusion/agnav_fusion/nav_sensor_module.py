@@ -234,7 +234,8 @@ class NavSensorModule:
         fixes.append((t, corrected, white))
         self.estimator.path_pitch(max(i for i in range(k + 1) if hist[i].t <= mid), t, d[2] / (t - t0),
                                   float(np.hypot(d[0], d[1])) / (t - t0),
-                                  (w0 + white) * vertical / (t - t0) ** 2)
+                                  (w0 + white + self.estimator.ekf.bias_change_variance(t - t0)) * vertical
+                                  / (t - t0) ** 2)
 
     def gate(self, t, d2):
         """True to accept; False (counted) to refuse; None once fixes have been refused for gnss_reset_time (a
