@@ -53,6 +53,8 @@ def generate_launch_description():
                  'gate_chi2': 13.8,
                  'ekf.gnss_bias_tau': 40.0,
                  'ekf.gnss_white_sigma': 0.01,
+                 'ekf.rate_noise': 0.001,
+                 'ekf.bias_walk': 3e-05,
                  'ekf.jerk_noise': 0.1,
                  'ekf.crab_roll_gain': 0.2,
                  'untracked_tilt_sigma': 0.035,
