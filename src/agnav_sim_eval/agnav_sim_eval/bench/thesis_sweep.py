@@ -3,19 +3,18 @@ thesis table (default 4,5), so that the settings are not tuned on the reported r
 
     agnav bench thesis_sweep [--seeds 4,5] [--json] [--write-docs PATH]
 
-Each variant scales one setting of NavSensorModuleSettings (or replays GNSS without latency) and reports the mean
+Each variant scales one parameter of config nsm (or replays GNSS without latency) and reports the mean
 RMS roll / pitch / heading / position over the Table 5.4 surfaces and seeds, as in `agnav bench thesis`.
 """
 import argparse
-import dataclasses
 import json
 from pathlib import Path
 
 import numpy as np
 
-from agnav_sim_eval.bench.module_runs import run_module
+from agnav_sim_eval import offline
+from agnav_sim_eval.bench.module_runs import NSM, run_module
 from agnav_sim_eval.bench.thesis import DEG, SURFACES, errors, tilt_zero
-from agnav_fusion.nav_sensor_module import NavSensorModuleSettings
 from agnav_sim_eval.bench import docs_option, write_docs
 
 QUANTITIES = ("roll", "pitch", "heading", "position")
@@ -23,22 +22,21 @@ SCALED = ("ekf.rate_noise", "ekf.bias_walk", "ekf.jerk_noise", "velocity_sigma",
           "roll_kf.incl_noise", "pitch_kf.bias_walk", "pitch_kf.incl_noise")
 
 
-def _scaled(path, factor):
-    """Settings overrides with the (nested) field `path` of the defaults multiplied by factor."""
-    defaults = NavSensorModuleSettings()
-    head, _, leaf = path.rpartition(".")
-    if not head:
-        return {leaf: getattr(defaults, leaf) * factor}
-    sub = getattr(defaults, head)
-    return {head: dataclasses.replace(sub, **{leaf: getattr(sub, leaf) * factor})}
+def _scaled(settings, path, factor):
+    """The node parameter `path` at factor x its value in `settings` (config nsm's)."""
+    value = settings
+    for part in path.split("."):
+        value = getattr(value, part)
+    return {path: value * factor}
 
 
 def variants():
     """{name: run_module keyword overrides}: the defaults, a latency-free replay, each setting x0.5 and x2."""
     out = {"defaults": {}, "GNSS without latency": {"latency": False}}
+    settings = offline.pipeline_for(NSM).backend.settings
     for path in SCALED:
         for factor in (0.5, 2.0):
-            out[f"{path} x{factor:g}"] = _scaled(path, factor)
+            out[f"{path} x{factor:g}"] = _scaled(settings, path, factor)
     return out
 
 
