@@ -24,10 +24,11 @@ def markdown(rows, gds, cost, seeds, ratios):
              "models replayed without GNSS latency and smoothed over the whole run (kalman.smooth_log): the lower "
              "bound. It is two-sided: at every instant it knows the inclinometer readings of the next seconds (the "
              "D5R lags by τ = 1.05 s) and the GNSS fixes on both sides, which no causal filter can; the forward "
-             "filter's noise settings sit at their optimum (`agnav bench thesis_sweep`, docs/benchmarks/"
-             "thesis_sweep.md: halving or doubling any of them improves no quantity by more than 2 % on seeds 4-5) "
-             "and a latency-free forward replay gives the same errors, so the remaining ratio is the price of "
-             "causality, not of tuning.", "",
+             "filter's noise settings sit near their optimum (`agnav bench thesis_sweep`, docs/benchmarks/"
+             "thesis_sweep.md, seeds 4-5: halving or doubling one of them gains at most 10 % in one quantity, "
+             "mostly at a cost in another, e.g. ekf.jerk_noise x0.5 pitch -10 %, position +1 %) and a latency-free "
+             "forward replay gives the same errors, so the remaining ratio is mostly the price of causality, not of "
+             "tuning.", "",
              "`floor:` rows are what no estimator on these sensors removes (simulator's hidden parameters): the "
              "D5R zero left after the calibration (absolute tilt has no other source; the ±3 % scale error, up to "
              "0.3° at the grass slope's 10°, is not observable by the two-way calibration either) and the receiver "
