@@ -38,6 +38,7 @@ class AgnavEstimator:
         self.heading_valid = False  # published: within heading_valid_sigma once, not beyond heading_lost_sigma since
         self.chord = HeadingChord(s.chord_max_turn, s.heading_init_distance, s.chord_max_sigma)
         self.still = False         # the latest fix says the vehicle stands still
+        self.resting = False       # still since a fix, and no fix faster than 3x the receiver's speed noise since
         self.fix_speed = None      # (epoch, EKF speed after the fix): the fixes' own acceleration
         self.last_fix_t = math.inf  # epoch of the latest fix, accepted or not
         self.coast_after = s.gnss_timeout  # s after last_fix_t the next fix is overdue (its period + coast_margin)
@@ -162,10 +163,13 @@ class AgnavEstimator:
         # fix difference (antenna sway, jitter) only when the EKF's speed agrees
         still_below = max(s.stationary_speed, 2.0 * s.velocity_sigma) if doppler else s.stationary_speed
         creeping = doppler or self.ekf.x is None or abs(self.ekf.x[IV]) < still_below
-        was_still, self.still = self.still, speed is not None and speed < still_below and creeping
+        self.still = speed is not None and speed < still_below and creeping
+        # a start after rest; by a receiver speed: beyond three times its noise (twice it: 14 % of the fixes of a
+        # standing vehicle, whose start would open the gyro biases again and again)
+        started = self.resting and not self.still and (not doppler or speed > 3.0 * s.velocity_sigma)
+        self.resting = self.still or (self.resting and not started)
         self.accel_miss = self._check_speed_model(k, t, speed, check_var, doppler, baseline)
-        accepted = self._fuse_fix(k, t, xy, R, v_ref, vel_var, speed, was_still and not self.still, doppler,
-                                  differenced)
+        accepted = self._fuse_fix(k, t, xy, R, v_ref, vel_var, speed, started, doppler, differenced)
         if t > self.last_fix_t:
             self.coast_after = min(self.m.settings.gnss_timeout, t - self.last_fix_t + self.m.settings.coast_margin)
         self.last_fix_t = t
