@@ -38,7 +38,7 @@ class AgnavEstimator:
         self.heading_valid = False  # published: within heading_valid_sigma once, not beyond heading_lost_sigma since
         self.chord = HeadingChord(s.chord_max_turn, s.heading_init_distance, s.chord_max_sigma)
         self.still = False         # the latest fix says the vehicle stands still
-        self.resting = False       # still since a fix, and no fix faster than 3x the receiver's speed noise since
+        self.resting = False       # a fix said still, and no start since
         self.fix_speed = None      # (epoch, EKF speed after the fix): the fixes' own acceleration
         self.last_fix_t = math.inf  # epoch of the latest fix, accepted or not
         self.coast_after = s.gnss_timeout  # s after last_fix_t the next fix is overdue (its period + coast_margin)

@@ -1,7 +1,7 @@
 """`agnav bench thesis_sweep` scales one parameter of config nsm and keeps every other one (a variant built from the
 settings class's defaults replaced the config's receiver-bias and jerk settings with them)."""
 from agnav_sim_eval import offline
-from agnav_sim_eval.bench.module_runs import NSM, _parameters
+from agnav_sim_eval.bench.module_runs import NSM
 from agnav_sim_eval.bench.thesis_sweep import SCALED, variants
 
 
@@ -12,7 +12,7 @@ def test_each_variant_scales_one_config_parameter_and_keeps_the_others():
         for factor in (0.5, 2.0):
             overrides = runs[f"{path} x{factor:g}"]
             assert list(overrides) == [path]
-            settings = offline.pipeline_for(NSM, **_parameters(overrides)).backend.settings
+            settings = offline.pipeline_for(NSM, **overrides).backend.settings
             for other in SCALED:
                 value, expected = settings, base
                 for part in other.split("."):
