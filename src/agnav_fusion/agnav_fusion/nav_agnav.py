@@ -129,9 +129,8 @@ class AgnavEstimator:
         return a[0] + b[0], a[1] + b[1], a[2] + b[2]
 
     def _kinematic_acceleration(self, wz, lever_acc):
-        """Body (FLU) acceleration of the inclinometer: forward (accelerometer or A state), centripetal V*wz (wz:
-        the corrected z gyro rate), and the lever-arm terms; -> (acceleration, variances of its forward and lateral
-        parts)."""
+        """Body (FLU) acceleration of the inclinometer: forward (accelerometer or A state), centripetal V*wz (the
+        corrected z rate), and the lever-arm terms; -> (acceleration, variances of its forward and lateral parts)."""
         ekf = self.ekf
         if ekf.x is None or self.still:  # standing still: no acceleration but the lever's (the gyro's sway)
             return lever_acc, (0.0, 0.0)
@@ -164,8 +163,7 @@ class AgnavEstimator:
         still_below = max(s.stationary_speed, 2.0 * s.velocity_sigma) if doppler else s.stationary_speed
         creeping = doppler or self.ekf.x is None or abs(self.ekf.x[IV]) < still_below
         self.still = speed is not None and speed < still_below and creeping
-        # a start after rest; by a receiver speed: beyond three times its noise (twice it: 14 % of the fixes of a
-        # standing vehicle, whose start would open the gyro biases again and again)
+        # a start after rest; by a receiver speed beyond 3x its noise (2x: 14 % of a standing vehicle's fixes)
         started = self.resting and not self.still and (not doppler or speed > 3.0 * s.velocity_sigma)
         self.resting = self.still or (self.resting and not started)
         self.accel_miss = self._check_speed_model(k, t, speed, check_var, doppler, baseline)
