@@ -41,7 +41,7 @@ def generate_launch_description():
                  'ekf.nhc.enabled': True,
                  'ekf.nhc.lateral_sigma': 0.05,
                  'ekf.nhc.crab_roll_mean': 0.2,
-                 'ekf.nhc.crab_roll_gain': 0.15,
+                 'ekf.nhc.crab_roll_gain': 0.1,
                  'ekf.error.accel_vrw': 0.003,
                  'ekf.error.gyro_arw': 0.0003,
              }, {'use_sim_time': use_sim_time}]),
