@@ -53,6 +53,7 @@ class AttitudeKF:
         s = self.settings
         self.lag = LagIdentifier(s.tau, s.lag) if s.identify_tau and s.tau >= LAG_MIN_TAU else None
         self._gyro_only = None  # [x, p, age] since the last checkpoint, propagated by the gyro alone
+        self._since = None  # [(x, p, lagged acceleration, rejected), inputs since]: re-filtered by refilter()
 
     def _init(self, incl):
         s = self.settings
@@ -71,6 +72,14 @@ class AttitudeKF:
             self._acc_lag = accel_error
         tau_id = self.lag.update(rate - self._x[1], incl, accel_error, dt) if self.lag else None
         tau, tau_rel = (tau_id, s.tau_rel_identified) if tau_id else (s.tau, s.tau_rel_sigma)
+        if self._since is not None:  # (kept for gyro_hold s at most)
+            inputs = self._since[1]
+            inputs.append((rate, incl, dt, accel_error, accel_var, tau, tau_rel))
+            self._since = self._since if len(inputs) * dt <= s.gyro_hold else None
+        return self._step(rate, incl, dt, accel_error, accel_var, tau, tau_rel)
+
+    def _step(self, rate, incl, dt, accel_error, accel_var, tau, tau_rel):
+        s = self.settings
         a = 1.0 - math.exp(-dt / tau) if tau > 0 else 1.0  # exact first-order lag: stable for any dt (IMU gaps)
         x, p = self._predict(self._x, self._p, a, rate, dt)
         if self._gyro_only is not None:
@@ -121,21 +130,47 @@ class AttitudeKF:
         """A direct reading of the angle (variance var, rad^2), gated like the inclinometer's."""
         if self._x is not None:
             self._x, self._p = self._update(self._x, self._p, angle, var, 0)
+            if self._since is not None:
+                self._since[1].append((angle, var))
 
     def checkpoint(self):
         """Keep a gyro-only copy from here (at a GNSS epoch that confirmed the acceleration compensation)."""
         if self._x is not None:
             self._gyro_only = [self._x, self._p, 0.0]
 
+    def mark(self):
+        """Keep the inputs from here, for refilter() (at a GNSS epoch: the speed model's acceleration, which the
+        inclinometer is compensated for, is what the next epoch corrects)."""
+        if self._x is not None:
+            self._since = [(self._x, self._p, self._acc_lag, self.rejected), []]
+
+    def refilter(self, change):
+        """The acceleration term removed from the readings since mark() was off by `change` (rad, a/g: the speed
+        model's acceleration as a later GNSS epoch corrected it): the filter runs again from there with it."""
+        if self._since is None:
+            return
+        (self._x, self._p, self._acc_lag, self.rejected), inputs = self._since
+        self._gyro_only = self._since = None
+        if self.log is not None:
+            del self.log[len(self.log) - len(inputs):]
+        for entry in inputs:  # IMU samples and direct readings (observe)
+            if len(entry) == 2:
+                self._x, self._p = self._update(self._x, self._p, *entry, 0)
+            else:
+                rate, incl, dt, accel_error, *rest = entry
+                self._step(rate, incl, dt, accel_error + change, *rest)
+
     def add_bias_variance(self, var):
         """The gyro bias may have moved by this much (rad/s)^2 (a vibratory gyro's motion bias at a start); the
-        gyro-only copy takes it too."""
-        if self._p is not None:
-            p = self._p
-            self._p = (p[0], p[1], p[2], p[3] + var, p[4], p[5])
+        gyro-only copy and the marked state take it too."""
+        def added(p):
+            return p if p is None else (p[0], p[1], p[2], p[3] + var, p[4], p[5])
+        self._p = added(self._p)
         if self._gyro_only is not None:
-            p = self._gyro_only[1]
-            self._gyro_only[1] = (p[0], p[1], p[2], p[3] + var, p[4], p[5])
+            self._gyro_only[1] = added(self._gyro_only[1])
+        if self._since is not None:
+            x, p, *rest = self._since[0]
+            self._since[0] = (x, added(p), *rest)
 
     def revert(self):
         """The acceleration removed from the readings since the checkpoint was wrong (a start or a braking seen late

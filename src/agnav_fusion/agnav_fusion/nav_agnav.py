@@ -28,8 +28,7 @@ class AgnavEstimator:
     """Backend of NavSensorModule (`m`: its history, settings, guard and gate)."""
 
     def __init__(self, m):
-        s = m.settings
-        self.m = m
+        self.m, s = m, m.settings
         self.roll_filter, self.pitch_filter = AttitudeKF(s.roll_kf), AttitudeKF(s.pitch_kf)
         self.ekf = NavEKF(s.ekf)
         self.wheel = None          # latest wheel speed (t, speed, variance) not yet fused
@@ -47,8 +46,7 @@ class AgnavEstimator:
         self.recent_fixes = deque()  # (epoch, tilt-corrected xy) of the fixes of the last still_baseline s
         self.accel_miss = 0.0      # m/s^2, acceleration the speed model missed before the latest fix
         self.alpha = [0.0, 0.0, 0.0]  # rad/s^2, low-passed angular acceleration (lever-arm acceleration)
-        self.fix_accel = 0.0       # m/s^2, speed change between fixes: compensates the inclinometer in accelerometer
-        #                            mode (the accelerometer's own along-track reading holds the pitch: circular)
+        self.fix_accel = 0.0       # m/s^2, the fixes' speed change: compensates the inclinometer (accelerometer mode)
 
     # ---- per IMU sample ---------------------------------------------------------------------------------
     uses_specific_force = True
@@ -107,10 +105,8 @@ class AgnavEstimator:
                 ekf.predict(rate_cw, dt / n, along, roll, coasting)
         else:
             ekf.predict(rate_cw, dt, along, roll, coasting)
-
         if still:
-            y, S, H, R = ekf.zero_rate_innovation(rate_cw, s.still_rate_sigma ** 2)
-            ekf.update(y, S, H, R)
+            ekf.update(*ekf.zero_rate_innovation(rate_cw, s.still_rate_sigma ** 2))
         if wheel is not None:
             self._fuse(ekf.wheel_innovation(*wheel), counter="wheel_gated")
 
@@ -122,8 +118,8 @@ class AgnavEstimator:
         alpha = self.alpha
         if prev is not None and dt > 0:
             gain = 1.0 - math.exp(-dt / s.lever_accel_tau)
-            alpha = self.alpha = [a + gain * ((g - g0) / dt - a)
-                                  for a, g, g0 in zip(alpha, gyro, prev.body_rates.tolist())]
+            g0 = prev.body_rates.tolist()
+            alpha = self.alpha = [a + gain * ((g - g_) / dt - a) for a, g, g_ in zip(alpha, gyro, g0)]
         r = s.incl_lever_flu
         a, b = cross_floats(alpha, r), cross_floats(gyro, cross_floats(gyro, r))
         return a[0] + b[0], a[1] + b[1], a[2] + b[2]
@@ -166,10 +162,17 @@ class AgnavEstimator:
         # a start after rest; by a receiver speed beyond 3x its noise (2x: 14 % of a standing vehicle's fixes)
         started = self.resting and not self.still and (not doppler or speed > 3.0 * s.velocity_sigma)
         self.resting = self.still or (self.resting and not started)
-        self.accel_miss = self._check_speed_model(k, t, speed, check_var, doppler, baseline)
+        # the fix's speed change, as an acceleration over the interval, was missing from the inclinometer's
+        # compensation: the pitch is re-filtered with it (unless a chord may set the speed, or an accelerometer is used)
+        refilter = (self.heading_known or doppler) and not self.ekf.accel_mode and t > self.last_fix_t
+        prior = m.history[k].nav if refilter else None
+        self.accel_miss = self._check_speed_model(k, t, speed, check_var, doppler, baseline, prior is not None)
         accepted = self._fuse_fix(k, t, xy, R, v_ref, vel_var, speed, started, doppler, differenced)
+        if prior is not None:
+            self.pitch_filter.refilter((m.history[k].nav[0][IV] - prior[0][IV]) / (t - self.last_fix_t) / GRAVITY)
         if t > self.last_fix_t:
-            self.coast_after = min(self.m.settings.gnss_timeout, t - self.last_fix_t + self.m.settings.coast_margin)
+            self.coast_after = min(s.gnss_timeout, t - self.last_fix_t + s.coast_margin)
+        self.pitch_filter.mark()
         self.last_fix_t = t
         return accepted
 
@@ -187,13 +190,13 @@ class AgnavEstimator:
                + s.path_pitch_sigma ** 2 / interval)
         self.pitch_filter.observe(theta + hist[-1].pitch - hist[k].pitch, var)
 
-    def _check_speed_model(self, k, t, speed, vel_var, doppler, baseline=0.0):
+    def _check_speed_model(self, k, t, speed, vel_var, doppler, baseline=0.0, refilter=False):
         """The GNSS speed tells whether the speed model's acceleration since the last epoch was right (it is also
-        what was removed from the inclinometers): beyond doubt wrong (a start, a braking), the attitude filters go
-        back to their gyro-only copies; agreeing, the copies restart here; in doubt, they wait. -> the acceleration
-        a receiver (Doppler) speed says the model missed (m/s^2) when not agreeing, else 0: its square joins the A
-        state's variance (a fix-difference speed, the mean over its `baseline` s, is compared with the model at the
-        baseline's middle: no such news)."""
+        what was removed from the inclinometers): beyond doubt wrong (a start, a braking), the tilt filters (the pitch
+        one unless `refilter`) go back to their gyro-only copies; agreeing, the copies restart here; in doubt, they
+        wait. -> the acceleration a receiver (Doppler) speed says the model missed (m/s^2) when not agreeing, else 0:
+        its square joins the A state's variance (a fix-difference speed, the mean over its `baseline` s, is compared
+        with the model at the baseline's middle: no such news)."""
         s, hist = self.m.settings, self.m.history
         if baseline:
             mid = hist[k].t - baseline / 2
@@ -205,7 +208,7 @@ class AgnavEstimator:
             return 0.0
         miss, sigma = speed - nav[0][IV], math.sqrt(vel_var + nav[1][IV, IV])
         sigmas = abs(miss) / sigma
-        for tilt in (self.roll_filter, self.pitch_filter):
+        for tilt in (self.roll_filter,) if refilter else (self.roll_filter, self.pitch_filter):
             if sigmas > s.tilt_revert_sigma:
                 tilt.revert()
             if sigmas <= s.tilt_keep_sigma or sigmas > s.tilt_revert_sigma:
@@ -235,11 +238,9 @@ class AgnavEstimator:
             ekf.P[IA, IA] += max(self.accel_miss ** 2, s.start_accel_sigma ** 2 if started else 0.0)
             if ekf.bias_changed:
                 ekf.restart_bias()
-        if first:
-            pass
-        elif not self.heading_known:
+        if not first and not self.heading_known:
             self._fix_before_heading(snap, t, xy, R, v_ref, vel_var, speed, doppler, differenced)
-        else:
+        elif not first:
             jac = offset_heading_jacobian(self.m.lever, snap.heading, snap.pitch, snap.roll)
             y, S, d2, H = ekf.position_innovation(xy, R, jac)
             if d2 > s.gate_chi2 and ekf.absorb_along_track(y, S, R, t - self.last_fix_t, s.max_accel):
@@ -300,8 +301,7 @@ class AgnavEstimator:
     def _fix_before_heading(self, snap, t, xy, R, v_ref, vel_var, speed, doppler, baseline):
         """No heading yet: decoupled heading and crab, speed fused, the position follows the fixes; the heading comes
         from the chord of the fixes (heading_chord.py) once it is known within chord_max_sigma (published once the
-        filter has it within heading_valid_sigma); the receiver's
-        course is a provisional heading meanwhile."""
+        filter has it within heading_valid_sigma); the receiver's course is a provisional heading meanwhile."""
         m, s, ekf = self.m, self.m.settings, self.ekf
         white = self._white_variance(R)
         for i, var in ((IPHI, math.pi ** 2), (IB, ekf.P[IB, IB]), (IC, s.ekf.crab_sigma ** 2)):
