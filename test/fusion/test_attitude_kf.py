@@ -111,6 +111,26 @@ def test_a_start_seen_late_is_re_filtered_with_its_acceleration():
     assert bias_error["late"] > 3 * bias_error["refiltered"] and angle_error["late"] > 3 * angle_error["refiltered"]
 
 
+def test_a_mark_at_an_epoch_samples_ago_re_filters_from_that_epoch():
+    """A fix processed 20 samples after its epoch marks there (mark(after=20)); the next, 100 samples later and
+    processed 20 after its own epoch, corrects the 80 samples between the epochs by one acceleration and the 20 after
+    by another: the same as a filter given both from the start."""
+    rng = np.random.default_rng(9)
+    inputs = [(math.radians(0.05) * rng.standard_normal(), math.radians(0.1) * rng.standard_normal())
+              for _ in range(1000)]
+    late, informed = AttitudeKF(AttitudeKFSettings(tau=0.5)), AttitudeKF(AttitudeKFSettings(tau=0.5))
+    before, after = 0.3 / 9.81, -0.1 / 9.81
+    for i, (rate, reading) in enumerate(inputs):
+        if i == 900:
+            late.mark()
+        if i == 920:
+            late.mark(after=20)
+        late.update(rate, reading, DT)
+        informed.update(rate, reading, DT, before if 900 <= i < 980 else after if i >= 980 else 0.0)
+    late.refilter(before, 20, after)
+    assert late.x.tolist() == informed.x.tolist() and late.P.tolist() == informed.P.tolist()
+
+
 def test_the_float_filter_equals_its_matrix_form():
     """AttitudeKF's float steps against kalman.predict / kalman.update_state on the same inputs."""
     from agnav_fusion import kalman

@@ -243,6 +243,24 @@ def test_the_smoother_log_keeps_one_step_per_imu_sample():
     assert len(nsm.estimator.ekf.log) == sum(t > first_fix + 1e-9 for t in times)
 
 
+def test_the_tilt_filters_smoother_logs_keep_one_step_per_imu_sample():
+    """The pitch filter re-filtered at every fix (its direct path-pitch readings among the inputs) keeps one log step
+    per IMU sample, as the roll filter does: the RTS rows of `agnav bench thesis` pair the right samples."""
+    counts = {}
+
+    def probe(t, nsm):
+        for name in ("roll_filter", "pitch_filter"):
+            kf = getattr(nsm.estimator, name)
+            if kf.log is None and kf.angle is not None:
+                kf.log = []
+            counts[name] = counts.get(name, 0) + (kf.log is not None)  # the samples logged from here
+    nsm, _ = drive(lambda t: float(np.clip(0.5 * (t - 5.0), 0.0, 3.0)), lambda t: 0.0, seconds=20.0, doppler=True,
+                   hook=probe)
+    assert counts["pitch_filter"] > 1500
+    for name in ("roll_filter", "pitch_filter"):
+        assert len(getattr(nsm.estimator, name).log) == counts[name]
+
+
 def test_receiver_speed_noise_at_10_hz_does_not_swing_the_speed_model():
     """A steady 1.26 m/s with 10 Hz receiver velocities (3 cm/s noise per axis): a speed off the model by more than
     tilt_keep_sigma opens the A state only by what the noise cannot explain (campaign seed 21: every such sample

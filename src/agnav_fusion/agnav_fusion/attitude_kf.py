@@ -8,7 +8,9 @@ the lag of a sensor whose time constant is off by tau_rel_sigma (error tau_rel_s
 scale error of the reading, all correlated over the lag (taken as white noise of the same low-frequency density:
 variance x 2 tau / dt per sample); the zero error the inclinometer carries is added to the reported variance (nothing
 observes it). The time constant is identified online from the gyro where the motion tells it (inclinometer_lag.py;
-the configured one is a data-sheet value, and units differ): then its spread is tau_rel_identified.
+the configured one is a data-sheet value, and units differ): then its spread is tau_rel_identified. The acceleration
+term is what a GNSS epoch corrects late: mark() keeps the inputs from an epoch on, refilter() runs them again with
+the correction (a fixed-lag re-filter; the gyro-only copy of checkpoint()/revert() is the cruder alternative).
 Angles rad, rates rad/s, any consistent sign convention.
 """
 import math
@@ -53,7 +55,8 @@ class AttitudeKF:
         s = self.settings
         self.lag = LagIdentifier(s.tau, s.lag) if s.identify_tau and s.tau >= LAG_MIN_TAU else None
         self._gyro_only = None  # [x, p, age] since the last checkpoint, propagated by the gyro alone
-        self._since = None  # [(x, p, lagged acceleration, rejected), inputs since]: re-filtered by refilter()
+        self._inputs = None  # inputs since mark(), each with the state before it: re-filtered by refilter()
+        self._held = 0.0     # s of IMU samples in them
 
     def _init(self, incl):
         s = self.settings
@@ -72,10 +75,10 @@ class AttitudeKF:
             self._acc_lag = accel_error
         tau_id = self.lag.update(rate - self._x[1], incl, accel_error, dt) if self.lag else None
         tau, tau_rel = (tau_id, s.tau_rel_identified) if tau_id else (s.tau, s.tau_rel_sigma)
-        if self._since is not None:  # (kept for gyro_hold s at most)
-            inputs = self._since[1]
-            inputs.append((rate, incl, dt, accel_error, accel_var, tau, tau_rel))
-            self._since = self._since if len(inputs) * dt <= s.gyro_hold else None
+        if self._inputs is not None:  # (kept for gyro_hold s at most)
+            self._inputs.append((self._state(), rate, incl, dt, accel_error, accel_var, tau, tau_rel))
+            self._held += dt
+            self._inputs = self._inputs if self._held <= s.gyro_hold else None
         return self._step(rate, incl, dt, accel_error, accel_var, tau, tau_rel)
 
     def _step(self, rate, incl, dt, accel_error, accel_var, tau, tau_rel):
@@ -129,36 +132,49 @@ class AttitudeKF:
     def observe(self, angle, var):
         """A direct reading of the angle (variance var, rad^2), gated like the inclinometer's."""
         if self._x is not None:
+            if self._inputs is not None:
+                self._inputs.append((self._state(), angle, var))
             self._x, self._p = self._update(self._x, self._p, angle, var, 0)
-            if self._since is not None:
-                self._since[1].append((angle, var))
 
     def checkpoint(self):
         """Keep a gyro-only copy from here (at a GNSS epoch that confirmed the acceleration compensation)."""
         if self._x is not None:
             self._gyro_only = [self._x, self._p, 0.0]
 
-    def mark(self):
-        """Keep the inputs from here, for refilter() (at a GNSS epoch: the speed model's acceleration, which the
-        inclinometer is compensated for, is what the next epoch corrects)."""
-        if self._x is not None:
-            self._since = [(self._x, self._p, self._acc_lag, self.rejected), []]
+    def _state(self):
+        return self._x, self._p, self._acc_lag, self.rejected
 
-    def refilter(self, change):
+    def mark(self, after=0):
+        """Keep the inputs from the `after`-th last IMU sample on (a GNSS epoch `after` samples ago: the speed
+        model's acceleration, which the readings were compensated for, is what the next epoch corrects)."""
+        inputs, imu = self._inputs, [i for i, e in enumerate(self._inputs or ()) if len(e) > 3]
+        if imu and after:  # (all of them when fewer: the window reaches the epochs again from the next fix)
+            self._inputs = inputs[imu[-min(after, len(imu))]:]
+            self._held = sum(e[3] for e in self._inputs if len(e) > 3)
+        elif self._x is not None:
+            self._inputs, self._held = [], 0.0
+
+    def refilter(self, change, after=0, change_after=0.0):
         """The acceleration term removed from the readings since mark() was off by `change` (rad, a/g: the speed
-        model's acceleration as a later GNSS epoch corrected it): the filter runs again from there with it."""
-        if self._since is None:
+        model's acceleration as a later GNSS epoch corrected it), on the last `after` IMU samples (after that epoch)
+        by `change_after`: the filter runs again from the mark with them (and its direct readings)."""
+        if not self._inputs:
             return
-        (self._x, self._p, self._acc_lag, self.rejected), inputs = self._since
-        self._gyro_only = self._since = None
+        inputs = self._inputs
+        (self._x, self._p, self._acc_lag, self.rejected), self._gyro_only = inputs[0][0], None
+        imu = sum(len(e) > 3 for e in inputs)
         if self.log is not None:
-            del self.log[len(self.log) - len(inputs):]
-        for entry in inputs:  # IMU samples and direct readings (observe)
-            if len(entry) == 2:
-                self._x, self._p = self._update(self._x, self._p, *entry, 0)
-            else:
-                rate, incl, dt, accel_error, *rest = entry
-                self._step(rate, incl, dt, accel_error + change, *rest)
+            del self.log[len(self.log) - imu:]
+        self._inputs, n = [], 0
+        for entry in inputs:
+            if len(entry) == 3:
+                self.observe(*entry[1:])
+                continue
+            rate, incl, dt, accel_error, *rest = entry[1:]
+            n += 1
+            accel_error += change if n <= imu - after else change_after
+            self._inputs.append((self._state(), rate, incl, dt, accel_error, *rest))
+            self._step(rate, incl, dt, accel_error, *rest)
 
     def add_bias_variance(self, var):
         """The gyro bias may have moved by this much (rad/s)^2 (a vibratory gyro's motion bias at a start); the
@@ -168,9 +184,9 @@ class AttitudeKF:
         self._p = added(self._p)
         if self._gyro_only is not None:
             self._gyro_only[1] = added(self._gyro_only[1])
-        if self._since is not None:
-            x, p, *rest = self._since[0]
-            self._since[0] = (x, added(p), *rest)
+        if self._inputs:  # the marked state
+            (x, p, *rest), *entry = self._inputs[0]
+            self._inputs[0] = ((x, added(p), *rest), *entry)
 
     def revert(self):
         """The acceleration removed from the readings since the checkpoint was wrong (a start or a braking seen late

@@ -40,6 +40,7 @@ class AgnavEstimator:
         self.resting = False       # a fix said still, and no start since
         self.fix_speed = None      # (epoch, EKF speed after the fix): the fixes' own acceleration
         self.last_fix_t = math.inf  # epoch of the latest fix, accepted or not
+        self.mark_t = -math.inf    # epoch from which the pitch filter keeps its inputs (re-filtered at the next fix)
         self.coast_after = s.gnss_timeout  # s after last_fix_t the next fix is overdue (its period + coast_margin)
         self.coasting = False      # a fix is overdue: the speed model coasts
         self.path_pitch_t = -math.inf
@@ -92,10 +93,10 @@ class AgnavEstimator:
         return rate_cw, roll, pitch, heading, self.raw_heading, nav, self.still, wheel, along
 
     def propagate(self, rate_cw, dt, still, wheel=None, along=None, roll=0.0, coasting=False):
-        """EKF prediction with the yaw rate (and the along-track acceleration `along`, roll for the crab model);
-        standing still, the gyro reading is its bias (zero-rate update); a wheel speed (speed, variance) measures V.
-        An IMU gap is bridged in steps of max_dt with the yaw rate and acceleration it may have hidden added as
-        noise. coasting: a fix is overdue (coast_margin s after the fix period, at most gnss_timeout s)."""
+        """EKF prediction with the yaw rate (the along-track acceleration `along`, roll for the crab model); standing
+        still, the gyro reading is its bias (zero-rate update); a wheel speed (speed, variance) measures V. An IMU gap
+        is bridged in steps of max_dt, the yaw rate and acceleration it may hide added as noise. coasting: a fix is
+        overdue (coast_margin s after the fix period, at most gnss_timeout s)."""
         s, ekf = self.m.settings, self.ekf
         if dt > s.max_dt:
             n = math.ceil(dt / s.max_dt)
@@ -111,9 +112,8 @@ class AgnavEstimator:
             self._fuse(ekf.wheel_innovation(*wheel), counter="wheel_gated")
 
     def _lever_acceleration(self, gyro, prev, dt):
-        """Body (FLU) acceleration of the attitude package relative to base_link: alpha x r + w x (w x r), alpha
-        from gyro differences through a lever_accel_tau low-pass (a vibratory gyro's noise differentiated per sample
-        is metres per s^2 at the package; sway passes). The IMU sits in the package (incl_lever_flu)."""
+        """Body (FLU) acceleration of the attitude package (and IMU, at incl_lever_flu) relative to base_link:
+        alpha x r + w x (w x r), alpha from gyro differences through a lever_accel_tau low-pass (sway passes)."""
         s = self.m.settings
         alpha = self.alpha
         if prev is not None and dt > 0:
@@ -164,15 +164,19 @@ class AgnavEstimator:
         self.resting = self.still or (self.resting and not started)
         # the fix's speed change, as an acceleration over the interval, was missing from the inclinometer's
         # compensation: the pitch is re-filtered with it (unless a chord may set the speed, or an accelerometer is used)
-        refilter = (self.heading_known or doppler) and not self.ekf.accel_mode and t > self.last_fix_t
+        refilter = (self.heading_known or doppler) and not self.ekf.accel_mode and t > self.mark_t
         prior = m.history[k].nav if refilter else None
         self.accel_miss = self._check_speed_model(k, t, speed, check_var, doppler, baseline, prior is not None)
         accepted = self._fuse_fix(k, t, xy, R, v_ref, vel_var, speed, started, doppler, differenced)
-        if prior is not None:
-            self.pitch_filter.refilter((m.history[k].nav[0][IV] - prior[0][IV]) / (t - self.last_fix_t) / GRAVITY)
+        post, after = m.history[k].nav, len(m.history) - 1 - k  # (samples after the epoch: the EKF's new A)
+        if prior is None or post is not prior:  # (a refused fix changed nothing: the interval goes on)
+            dv, interval = (post[0][IV] - prior[0][IV], t - self.mark_t) if prior is not None else (math.inf, 0.0)
+            if abs(dv) <= s.max_accel * interval:  # (more: a speed reset, no acceleration)
+                self.pitch_filter.refilter(dv / interval / GRAVITY, after, (post[0][IA] - prior[0][IA]) / GRAVITY)
+            self.pitch_filter.mark(after)
+            self.mark_t = t
         if t > self.last_fix_t:
             self.coast_after = min(s.gnss_timeout, t - self.last_fix_t + s.coast_margin)
-        self.pitch_filter.mark()
         self.last_fix_t = t
         return accepted
 
@@ -283,9 +287,8 @@ class AgnavEstimator:
         return verdict is not False
 
     def _earlier_fix(self, t, xy):
-        """The newest earlier tilt-corrected fix (epoch, xy) at least still_baseline s before t, else the oldest
-        kept (None for the first); remembers this one. Successive fixes of a 5-10 Hz receiver are too close for
-        their difference to tell standing from creeping."""
+        """The newest earlier tilt-corrected fix (epoch, xy) at least still_baseline s before t (a 5-10 Hz receiver's
+        successive fixes are too close to tell standing from creeping), else the oldest kept; remembers this one."""
         recent = self.recent_fixes
         while len(recent) > 1 and recent[1][0] <= t - self.m.settings.still_baseline:
             recent.popleft()
@@ -294,8 +297,7 @@ class AgnavEstimator:
         return earlier
 
     def _white_variance(self, R):
-        """Per-axis variance of a fix's own error in R, less the antenna lever placed with the heading's uncertainty
-        (the same for successive fixes while the heading holds)."""
+        """Per-axis variance of a fix's own error in R, less the lever's part from the heading's (common to fixes)."""
         return max(float(np.trace(R)) / 2 - tilt_variance(self.m.lever, 0.0, 0.0, self.ekf.P[IPHI, IPHI]), 0.0)
 
     def _fix_before_heading(self, snap, t, xy, R, v_ref, vel_var, speed, doppler, baseline):
@@ -345,12 +347,11 @@ class AgnavEstimator:
 
     def _standstill(self, speed):
         """Standstill innovation at a receiver speed below the still threshold: zero within that speed (a creeping
-        or just stopping vehicle is not held at exactly zero; its position would be pulled back through the track)."""
+        or just stopping vehicle held at exactly zero would have its position pulled back through the track)."""
         return self.ekf.standstill_innovation(self.m.settings.standstill_sigma ** 2 + speed ** 2)
 
     def _doppler(self, vel, vel_var):
-        """True for a receiver velocity (variance at the velocity_sigma floor), not one from fix differences:
-        only that one tells standing still from creeping."""
+        """True for a receiver velocity (variance at the velocity_sigma floor): it tells standing from creeping."""
         return vel is not None and vel_var <= self.m.settings.velocity_sigma ** 2
 
     def _fuse(self, innovation, gated=True, counter="velocity_gated"):
@@ -367,8 +368,7 @@ class AgnavEstimator:
         return None if self.ekf.x is None else self.ekf.crab()
 
     def heading_variance(self):
-        """Heading variance the tilt correction adds to a fix's: none once the heading is known (the position
-        update carries the lever's heading Jacobian)."""
+        """Heading variance the tilt correction adds to a fix's: none once known (the lever Jacobian carries it)."""
         if self.heading_known:
             return 0.0
         return float(self.ekf.P[IPHI, IPHI]) if self.ekf.x is not None else math.inf
