@@ -57,7 +57,7 @@ def generate_launch_description():
                  'ekf.bias_walk': 3e-05,
                  'ekf.jerk_noise': 0.1,
                  'ekf.crab_roll_gain': 0.2,
-                 'ekf.crab_gain_sigma': 0.1,
+                 'ekf.crab_gain_sigma': 0.15,
                  'untracked_tilt_sigma': 0.035,
                  'gnss_timeout': 2.5,
                  'wheel_speed_sigma': 0.05,
