@@ -79,8 +79,8 @@ def test_an_rtk_float_wander_is_not_a_climb():
     differences) and a 20 s float episode whose error wanders 15 cm (30 cm vertical, 20 s correlation) as its
     covariance says: the wander over the 1 s differences is the slow error's change, not a climb
     (campaign seed 13: pitch 1.1 deg off in the float episode; here 0.13 deg RMS in it when taken for white noise);
-    the pitch stays within 0.08 deg RMS in it (0.04 before the pitch was re-filtered with the fixes' speed changes,
-    which the wander moves too: 0.066), 0.15 deg and 3 sigma throughout."""
+    the pitch stays within 0.07 deg RMS in it (0.04 before the pitch was re-filtered with the fixes' speed changes,
+    which the wander moves too: 0.062; bound 0.06 before), 0.15 deg and 3 sigma throughout."""
     rng = np.random.default_rng(2)
     ekf = NavEKFSettings(gnss_bias_tau=40.0, gnss_white_sigma=0.01)
     nsm = NavSensorModule(NavSensorModuleSettings(lever_flu=LEVER, ekf=ekf))
@@ -101,6 +101,6 @@ def test_an_rtk_float_wander_is_not_a_climb():
             out.append((t, state.rpy[1], math.sqrt(state.pose_cov[4, 4])))
     t, err, sig = np.array(out).T
     floating = (t > 30.0) & (t < 55.0)
-    assert math.sqrt(np.mean(err[floating] ** 2)) < math.radians(0.08)
+    assert math.sqrt(np.mean(err[floating] ** 2)) < math.radians(0.07)
     assert np.abs(err).max() < math.radians(0.15)
     assert np.all(np.abs(err) <= 3 * sig)
