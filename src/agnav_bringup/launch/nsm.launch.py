@@ -36,6 +36,7 @@ def generate_launch_description():
         Node(package='agnav_fusion', executable='nav_sensor_module_node', name='nav_sensor_module', output='screen',
              parameters=[{
                  'estimator': 'agnav',
+                 'gyro_bandwidth_hz': 10.0,
                  'incl_zero_deg': [0.056, -0.094],
                  'roll_lsm.window': 270,
                  'pitch_lsm.window': 200,

@@ -13,6 +13,7 @@ Front end (what every estimator needs once):
   velocity has been seen a fix waits for its own up to `velocity_wait` s of IMU time; without /gnss/vel the
   velocity of the fixes over the last `fix_velocity_baseline` m (at most FIX_HISTORY_S back) is used (not for a
   strapdown backend: the INS differences its own fixes, ins.alignment.FixTrack);
+- the gyro's first-order response (`gyro_bandwidth_hz`) undone (gyro_lag);
 - the tilt source: inclinometer messages, or the accelerometer's gravity direction (`tilt_source: accelerometer`).
 The backend (NavSensorModule: estimator `agnav` or `thesis`; InsNavigation: `ins`) guards values and stamps,
 replays late fixes against its IMU history and keeps the covariances. Every backend gets the accelerometer's
@@ -31,6 +32,8 @@ from dataclasses import dataclass
 
 import numpy as np
 from agnav_common.geodesy import LocalTangentPlane
+
+from agnav_fusion.gyro_lag import GyroLag
 
 VEL_MATCH_S = 0.1       # s, a /gnss/vel within this of a fix epoch is fused with it ...
 VEL_MATCH_PERIODS = 0.25  # ... and within this share of the fix interval (a 10 Hz fix never takes the last epoch's)
@@ -64,6 +67,7 @@ class FrontEndSettings:
     velocity_wait: float = 0.2          # s of IMU time a fix waits for its /gnss/vel
     fix_velocity_baseline: float = 2.0  # m; 0: no velocity without /gnss/vel (the INS: its own 2 m FixTrack)
     unknown_fix_sigma: float = 1.0      # m per axis of a fix whose covariance type is UNKNOWN
+    gyro_bandwidth_hz: float = 0.0      # Hz, the gyro's first-order response (data sheet), undone; 0: taken as is
 
 
 class NavigationPipeline:
@@ -79,6 +83,7 @@ class NavigationPipeline:
         self.guard = backend.guard
         self.strapdown = getattr(backend, "strapdown", False)
         self.on_datum = on_datum
+        self.gyro_lag = GyroLag(s.gyro_bandwidth_hz)
         self.imu_rotation = None
         self._rotation_rows = None  # imu_rotation as rows of floats (per-sample rotation, rotate())
         self.plane = None
@@ -138,7 +143,7 @@ class NavigationPipeline:
             self.backend.inclinometer(t, *accelerometer_tilt(accel))
             if not self.strapdown:  # its tilt already holds the acceleration: no second, independent use of it
                 accel = None
-        state = self.backend.imu(t, rotate(rows, msg.angular_velocity), accel)
+        state = self.backend.imu(t, self.gyro_lag.undo(t, rotate(rows, msg.angular_velocity)), accel)
         if state is not None:
             self.last_imu_t = max(self.last_imu_t, state.t)
         if self.raw is not None:
