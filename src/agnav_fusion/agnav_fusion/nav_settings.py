@@ -63,7 +63,7 @@ class NavSensorModuleSettings:
     path_pitch_sigma: float = 0.015           # rad, body pitch off the path's over 1 s of fixes (sway, terrain waves)
     fix_accel_gain: float = 0.3               # smoothing of the fixes' speed change (inclinometer compensation)
     max_accel: float = 3.0                    # m/s^2, along-track accelerometer reading clipped (bumps) (agnav)
-    still_rate_sigma: float = 0.01            # rad/s per IMU sample of a still gyro (ENV-05F 0.25 deg/s, 10 Hz band)
+    still_rate_sigma: float = 0.01            # rad/s per IMU sample of a still gyro (ENV-05F 0.25 deg/s; 2.4x de-lagged)
     motion_bias_sigma: float = 0.003          # rad/s, yaw-gyro bias change once moving (SPEC §11.4 motion biases)
     start_accel_sigma: float = 0.5            # m/s^2, acceleration of a start, unknown to the A state (agnav)
     tilt_revert_sigma: float = 3.0            # GNSS speed off the speed model by more (sigmas): the acceleration removed
