@@ -147,10 +147,10 @@ class AttitudeKF:
     def mark(self, after=0):
         """Keep the inputs from the `after`-th last IMU sample on (a GNSS epoch `after` samples ago: the speed
         model's acceleration, which the readings were compensated for, is what the next epoch corrects)."""
-        inputs, imu = self._inputs, [i for i, e in enumerate(self._inputs or ()) if len(e) > 3]
+        inputs, imu = self._inputs, [i for i, e in enumerate(self._inputs or ()) if _is_imu(e)]
         if imu and after:  # (all of them when fewer: the window reaches the epochs again from the next fix)
             self._inputs = inputs[imu[-min(after, len(imu))]:]
-            self._held = sum(e[3] for e in self._inputs if len(e) > 3)
+            self._held = sum(e[3] for e in self._inputs if _is_imu(e))
         elif self._x is not None:
             self._inputs, self._held = [], 0.0
 
@@ -162,12 +162,12 @@ class AttitudeKF:
             return
         inputs = self._inputs
         (self._x, self._p, self._acc_lag, self.rejected), self._gyro_only = inputs[0][0], None
-        imu = sum(len(e) > 3 for e in inputs)
+        imu = sum(map(_is_imu, inputs))
         if self.log is not None:
             del self.log[len(self.log) - imu:]
         self._inputs, n = [], 0
         for entry in inputs:
-            if len(entry) == 3:
+            if not _is_imu(entry):
                 self.observe(*entry[1:])
                 continue
             rate, incl, dt, accel_error, *rest = entry[1:]
@@ -214,6 +214,12 @@ class AttitudeKF:
     @property
     def bias(self):
         return 0.0 if self._x is None else self._x[1]
+
+
+def _is_imu(entry):
+    """A kept input is an IMU sample (state before it, rate, incl, dt, accel_error, accel_var, tau, tau_rel) or a
+    direct reading (state before it, angle, var)."""
+    return len(entry) > 3
 
 
 def _matrix(p):
