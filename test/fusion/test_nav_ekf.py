@@ -142,6 +142,30 @@ def test_coasting_does_not_extrapolate_an_unconfirmed_acceleration():
     assert 3.0 * math.sqrt(variance[True]) > 1.0, variance
 
 
+def test_braking_ends_at_rest_and_only_a_measurement_reverses():
+    """The speed model's deceleration stops at zero speed (a braking tractor does not drive on backwards until the
+    next fix), where the acceleration ends too; a speed already negative (a fix said reversing) is propagated as
+    before, and so is any speed in accelerometer mode (the accelerometer reads the stop)."""
+    ekf = NavEKF()
+    ekf.initialise([0.0, 0.0], 1e-4 * np.eye(2), 0.0, 0.3)
+    ekf.x[IA] = -0.5
+    for _ in range(100):  # 1 s at 100 Hz: 0.3 m/s at -0.5 m/s^2 would end at -0.2 m/s
+        ekf.predict(0.0, 0.01)
+    assert ekf.x[IV] == 0.0 and ekf.x[IA] == 0.0
+    stop = ekf.x[1]
+    assert 0.09 < stop < 0.1  # the braking's distance (A decays with accel_tau: a little over 0.3^2 / (2 x 0.5))
+    for _ in range(100):
+        ekf.predict(0.0, 0.01)
+    assert ekf.x[1] == stop and ekf.x[IV] == 0.0
+    ekf.x[IV], ekf.x[IA] = -0.1, -0.2
+    ekf.predict(0.0, 0.01)
+    assert ekf.x[IV] < -0.1
+    ekf.set_accel_mode(True)
+    ekf.x[IV], ekf.x[IA] = 0.001, 0.0
+    ekf.predict(0.0, 0.01, accel=-0.5)
+    assert ekf.x[IV] < 0.0
+
+
 def test_a_position_reset_keeps_the_antenna_lever_tied_to_the_heading():
     """A fix moved to base_link with the estimated heading carries that heading's error through the antenna lever.
     Reset there with the lever's heading Jacobian, the position shares it: the antenna is uncorrelated with the

@@ -214,7 +214,12 @@ class NavEKF:
         x[IX] += v * sin_c * dt
         x[IY] += v * cos_c * dt
         x[IPHI] = math.remainder(x[IPHI] + ((1.0 + x[IS]) * rate - x[IB]) * dt, 2 * math.pi)
-        x[IV] += ((accel or 0.0) - x[IA]) * dt if self.accel_mode else x[IA] * dt
+        if self.accel_mode:
+            x[IV] += ((accel or 0.0) - x[IA]) * dt
+        elif (v + x[IA] * dt) * v < 0.0:  # braking ends at rest: the model never reverses, only a measurement does
+            x[IV] = x[IA] = 0.0
+        else:
+            x[IV] += x[IA] * dt
         x[IA] *= fa
         x[IBX] *= fb
         x[IBY] *= fb
