@@ -151,3 +151,45 @@ def test_the_float_filter_equals_its_matrix_form():
         kf.update(rate, incl, DT)
         np.testing.assert_allclose(kf.x, x, rtol=0, atol=1e-12)
         np.testing.assert_allclose(kf.P, P, rtol=0, atol=1e-15)
+
+
+def test_a_spread_bias_change_adds_its_variance_evenly_and_survives_a_refilter():
+    """add_bias_variance(var, spread): the bias variance grows by var / spread per s for spread s, not at once, until
+    end_bias_change(); a refilter from a mark before it replays that growth (bit for bit with a filter told at the
+    mark)."""
+    s = AttitudeKFSettings(identify_tau=False, tau=0.5, bias_walk=0.0)
+    at_once, spread = AttitudeKF(s), AttitudeKF(s)
+    for kf in (at_once, spread):
+        kf.update(0.0, 0.0, DT)
+        kf.checkpoint()
+    p11 = spread.P[1, 1]
+    at_once.add_bias_variance(1e-4)
+    spread.add_bias_variance(1e-4, spread=2.0)
+    assert at_once.P[1, 1] == pytest.approx(p11 + 1e-4) and spread.P[1, 1] == p11
+    for kf in (at_once, spread):
+        for _ in range(100):  # 1 s without readings: nothing observes the bias
+            kf.update(0.0, None, DT)
+    assert spread.P[1, 1] == pytest.approx(p11 + 0.5e-4, rel=1e-9)
+    for _ in range(150):
+        spread.update(0.0, None, DT)
+    assert spread.P[1, 1] == pytest.approx(at_once.P[1, 1], rel=1e-9)  # all of it after 2 s, no more
+    spread.add_bias_variance(1e-4, spread=2.0)
+    for _ in range(50):
+        spread.update(0.0, None, DT)
+    spread.end_bias_change()  # standing again: the change stops
+    for _ in range(100):
+        spread.update(0.0, None, DT)
+    assert spread.P[1, 1] == pytest.approx(at_once.P[1, 1] + 0.25e-4, rel=1e-9)
+    rng = np.random.default_rng(3)
+    inputs = [(rng.normal(0.0, 1e-3), rng.normal(0.0, 1e-3)) for _ in range(300)]
+    late, told = AttitudeKF(s), AttitudeKF(s)
+    for i, (rate, reading) in enumerate(inputs):
+        if i == 100:
+            late.mark()
+            told.add_bias_variance(1e-4, spread=1.0)
+        if i == 150:
+            late.add_bias_variance(1e-4, spread=1.0)  # a start seen at a later fix: from the mark
+        late.update(rate, reading, DT)
+        told.update(rate, reading, DT)
+    late.refilter(0.0)
+    assert late.x.tolist() == told.x.tolist() and late.P.tolist() == told.P.tolist()

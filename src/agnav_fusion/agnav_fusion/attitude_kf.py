@@ -57,6 +57,7 @@ class AttitudeKF:
         self._gyro_only = None  # [x, p, age] since the last checkpoint, propagated by the gyro alone
         self._inputs = None  # inputs since mark(), each with the state before it: re-filtered by refilter()
         self._held = 0.0     # s of IMU samples in them
+        self._walk = None    # (extra bias variance per s, s left) of a bias change still under way
 
     def _init(self, incl):
         s = self.settings
@@ -84,10 +85,16 @@ class AttitudeKF:
     def _step(self, rate, incl, dt, accel_error, accel_var, tau, tau_rel):
         s = self.settings
         a = 1.0 - math.exp(-dt / tau) if tau > 0 else 1.0  # exact first-order lag: stable for any dt (IMU gaps)
-        x, p = self._predict(self._x, self._p, a, rate, dt)
+        walk = s.bias_walk ** 2 * dt
+        if self._walk is not None:
+            per_s, left = self._walk
+            walk += per_s * min(dt, left)
+            self._walk = (per_s, left - dt) if left > dt else None
+        x, p = self._predict(self._x, self._p, a, rate, dt, walk)
         if self._gyro_only is not None:
             age = self._gyro_only[2] + dt
-            self._gyro_only = [*self._predict(*self._gyro_only[:2], a, rate, dt), age] if age <= s.gyro_hold else None
+            self._gyro_only = [*self._predict(*self._gyro_only[:2], a, rate, dt, walk), age] \
+                if age <= s.gyro_hold else None
         lag_miss = tau_rel * (accel_error - self._acc_lag)
         self._acc_lag += a * (accel_error - self._acc_lag)
         x_pred, p_pred = x, p
@@ -102,8 +109,9 @@ class AttitudeKF:
             self.log.append((F, np.array(x_pred), _matrix(p_pred), self.x, self.P))
         return x[0]
 
-    def _predict(self, x, p, a, rate, dt):
-        """x <- F x + (rate dt, 0, 0), P <- F P F^T + Q for F = [[1, -dt, 0], [0, 1, 0], [a, 0, 1 - a]]."""
+    def _predict(self, x, p, a, rate, dt, walk):
+        """x <- F x + (rate dt, 0, 0), P <- F P F^T + Q for F = [[1, -dt, 0], [0, 1, 0], [a, 0, 1 - a]]; walk: the
+        bias variance the step adds."""
         s, b = self.settings, 1.0 - a
         p00, p01, p02, p11, p12, p22 = p
         r00, r02 = p00 - dt * p01, p02 - dt * p12       # (F P) row 0, columns 0 and 2
@@ -114,7 +122,7 @@ class AttitudeKF:
         q12 = a * p01 + b * p12
         q22 = a * r20 + b * (a * p02 + b * p22)
         x0, x1, x2 = x
-        return (x0 - dt * x1 + rate * dt, x1, a * x0 + b * x2), (q00, q01, q02, p11 + s.bias_walk ** 2 * dt, q12, q22)
+        return (x0 - dt * x1 + rate * dt, x1, a * x0 + b * x2), (q00, q01, q02, p11 + walk, q12, q22)
 
     def _update(self, x, p, z, r, j):
         """The reading z (variance r) of state j (0 angle, 2 lagged angle), gated (a refused reading is counted)."""
@@ -142,7 +150,7 @@ class AttitudeKF:
             self._gyro_only = [self._x, self._p, 0.0]
 
     def _state(self):
-        return self._x, self._p, self._acc_lag, self.rejected
+        return self._x, self._p, self._acc_lag, self.rejected, self._walk
 
     def mark(self, after=0):
         """Keep the inputs from the `after`-th last IMU sample on (a GNSS epoch `after` samples ago: the speed
@@ -161,7 +169,7 @@ class AttitudeKF:
         if not self._inputs:
             return
         inputs = self._inputs
-        (self._x, self._p, self._acc_lag, self.rejected), self._gyro_only = inputs[0][0], None
+        (self._x, self._p, self._acc_lag, self.rejected, self._walk), self._gyro_only = inputs[0][0], None
         imu = sum(map(_is_imu, inputs))
         if self.log is not None:
             del self.log[len(self.log) - imu:]
@@ -176,9 +184,13 @@ class AttitudeKF:
             self._inputs.append((self._state(), rate, incl, dt, accel_error, *rest))
             self._step(rate, incl, dt, accel_error, *rest)
 
-    def add_bias_variance(self, var):
-        """The gyro bias may have moved by this much (rad/s)^2 (a vibratory gyro's motion bias at a start); the
-        gyro-only copy and the marked state take it too."""
+    def add_bias_variance(self, var, spread=0.0):
+        """The gyro bias may move by this much (rad/s)^2 (a vibratory gyro's motion bias at a start) over the next
+        `spread` s (evenly: 0 at once); the gyro-only copy and the marked state take it too."""
+        if spread > 0.0:
+            self._set_walk((var / spread, spread))
+            return
+
         def added(p):
             return p if p is None else (p[0], p[1], p[2], p[3] + var, p[4], p[5])
         self._p = added(self._p)
@@ -187,6 +199,17 @@ class AttitudeKF:
         if self._inputs:  # the marked state
             (x, p, *rest), *entry = self._inputs[0]
             self._inputs[0] = ((x, added(p), *rest), *entry)
+
+    def end_bias_change(self):
+        """The bias change under way (add_bias_variance with a spread) stops: the vehicle stands again (from the
+        marked state on, which a re-filter starts from)."""
+        self._set_walk(None)
+
+    def _set_walk(self, walk):
+        self._walk = walk
+        if self._inputs:  # the marked state
+            (*state, _), *entry = self._inputs[0]
+            self._inputs[0] = ((*state, walk), *entry)
 
     def revert(self):
         """The acceleration removed from the readings since the checkpoint was wrong (a start or a braking seen late

@@ -162,6 +162,9 @@ class AgnavEstimator:
         # a start after rest; by a receiver speed beyond 3x its noise (2x: 14 % of a standing vehicle's fixes)
         started = self.resting and not self.still and (not doppler or speed > 3.0 * s.velocity_sigma)
         self.resting = self.still or (self.resting and not started)
+        if self.still:  # (a start taken from noise: no motion bias builds up standing)
+            for tilt in (self.roll_filter, self.pitch_filter):
+                tilt.end_bias_change()
         # the fix's speed change, as an acceleration over the interval, was missing from the inclinometer's
         # compensation: the pitch is re-filtered with it (unless a chord may set the speed, or an accelerometer is used)
         refilter = (self.heading_known or doppler) and not self.ekf.accel_mode and t > self.mark_t
@@ -238,7 +241,7 @@ class AgnavEstimator:
                 ekf.P[IB, IB] += s.motion_bias_sigma ** 2  # acceleration is news to the A state, and the speed
                 ekf.P[IV, IV] += (s.start_accel_sigma * min(t - self.last_fix_t, 1.0)) ** 2  # it gave since then
                 for tilt in (self.roll_filter, self.pitch_filter):
-                    tilt.add_bias_variance(s.motion_bias_sigma ** 2)
+                    tilt.add_bias_variance(s.motion_bias_sigma ** 2, s.motion_bias_spread)
             ekf.P[IA, IA] += max(self.accel_miss ** 2, s.start_accel_sigma ** 2 if started else 0.0)
             if ekf.bias_changed:
                 ekf.restart_bias()
@@ -339,8 +342,7 @@ class AgnavEstimator:
     def _set_course(self, course, var):
         """Heading = course - crab: the crab's variance (and correlation) is added to the course's."""
         ekf = self.ekf
-        h = ekf.crab_jacobian()
-        crab, crab_var = ekf.crab()
+        h, (crab, crab_var) = ekf.crab_jacobian(), ekf.crab()
         ekf.x[IPHI] = math.remainder(course - crab, 2 * math.pi)
         ekf.P[IPHI, :] = ekf.P[:, IPHI] = -ekf.P[:, IC:IR] @ h
         ekf.P[IPHI, IPHI] = var + crab_var
@@ -369,9 +371,7 @@ class AgnavEstimator:
 
     def heading_variance(self):
         """Heading variance the tilt correction adds to a fix's: none once known (the lever Jacobian carries it)."""
-        if self.heading_known:
-            return 0.0
-        return float(self.ekf.P[IPHI, IPHI]) if self.ekf.x is not None else math.inf
+        return 0.0 if self.heading_known else float(self.ekf.P[IPHI, IPHI]) if self.ekf.x is not None else math.inf
 
     def rate_corrections(self):
         """(roll, thesis pitch, clockwise yaw) gyro corrections."""
