@@ -64,7 +64,7 @@ class NavSensorModuleSettings:
     fix_accel_gain: float = 0.3               # smoothing of the fixes' speed change (inclinometer compensation)
     max_accel: float = 3.0                    # m/s^2, along-track accelerometer reading clipped (bumps) (agnav)
     still_rate_sigma: float = 0.01            # rad/s per IMU sample of a still gyro (ENV-05F 0.25 deg/s; 2.4x de-lagged)
-    motion_bias_sigma: float = 0.003          # rad/s, yaw-gyro bias change once moving (SPEC §11.4 motion biases)
+    motion_bias_sigma: float = 0.003          # rad/s, gyro bias change once moving (SPEC §11.4 motion biases)
     motion_bias_spread: float = 10.0          # s, the tilt gyros' motion biases build up over the first seconds of a
     #                                           drive (vibration): that much variance per s, not all at the start fix
     start_accel_sigma: float = 0.5            # m/s^2, acceleration of a start, unknown to the A state (agnav)
