@@ -25,8 +25,9 @@ def markdown(rows, gds, cost, seeds, ratios):
              "bound. It is two-sided: at every instant it knows the inclinometer readings of the next seconds (the "
              "D5R lags by τ = 1.05 s) and the GNSS fixes on both sides, which no causal filter can; the forward "
              "filter's noise settings sit near their optimum (`agnav bench thesis_sweep`, docs/benchmarks/"
-             "thesis_sweep.md, seeds 4-5: halving or doubling one of them gains at most 10 % in one quantity, "
-             "mostly at a cost in another, e.g. ekf.jerk_noise x0.5 pitch -10 %, position +1 %) and a latency-free "
+             "thesis_sweep.md, seeds 4-5: halving or doubling one of them gains at most 14 % in one quantity, "
+             "mostly at a cost in another, e.g. ekf.jerk_noise x0.5 pitch -14 %, position +1 %, whose slower speed "
+             "model the randomized campaign's starts and stops do not allow) and a latency-free "
              "forward replay gives the same errors, so the remaining ratio is mostly the price of causality, not of "
              "tuning.", "",
              "`floor:` rows are what no estimator on these sensors removes (simulator's hidden parameters): the "
