@@ -24,8 +24,8 @@ def test_a_real_jump_is_accepted_once_confirmed():
 
 def test_a_jump_the_reference_clock_vouches_for_is_taken_at_once():
     """A receiver back after a 20 s outage, its stamps on the IMU clock: no fix is held back for confirmation. Without
-    a lead bound the reference does not vouch for the future, and a jump waits for its confirmation as before (and
-    without `vouch`: the INS backends' clocks)."""
+    a lead bound the reference does not vouch for the future, and a jump waits for its confirmation as before (as
+    without `vouch`)."""
     clock = StreamClock(StreamClockSettings(max_jump=1.0, max_lead=0.5, vouch=True))
     assert clock.check(10.0, ref=10.1) is None
     assert clock.check(30.0, ref=30.1) is None and clock.last == 30.0

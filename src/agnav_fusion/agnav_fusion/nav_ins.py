@@ -57,7 +57,7 @@ class InsNavigation:
         s.ekf.initial_heading = math.pi / 2 - s.initial_yaw
         s.ekf.initial_heading_sigma = s.initial_yaw_sigma if s.initial_yaw_sigma > 0 else math.inf
         gnss_clock = StreamClockSettings(max_jump=s.guard.max_stamp_jump, max_lag=s.ekf.history,
-                                         max_lead=s.ekf.max_gnss_lead)
+                                         max_lead=s.ekf.max_gnss_lead, vouch=True)
         self.guard = InputGuard(s.guard, clocks={"imu": StreamClockSettings(max_jump=s.imu_max_jump),
                                                  "gnss": gnss_clock, "vel": gnss_clock})
         self.gnss_overdue = Overdue(s.gnss_overdue_periods)

@@ -46,7 +46,7 @@ class InsTightNavigation(InsNavigation):
     def receiver_status(self, t, rtk_fixed):
         """The receiver's status at epoch t: RTK fixed or not (it decides for the fixes that follow)."""
         if self.ekf is not None:
-            self.ekf.receiver_status(rtk_fixed)
+            self.ekf.receiver_status(rtk_fixed, t)
 
     def raw_epoch(self, rover, base, nav, base_pos):
         """One rover ObsEpoch with the latest base ObsEpoch (None: none), the cssrlib Nav and the base ECEF

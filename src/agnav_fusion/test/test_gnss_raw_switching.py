@@ -3,9 +3,9 @@ tightly coupled filter (InsEkf.export_state / adopt)."""
 import numpy as np
 
 from agnav_fusion.gnss_raw.observations import ObsEpoch
-from agnav_fusion.gnss_raw.switching import INS_ONLY, LOOSE, TIGHT, select_mode
+from agnav_fusion.gnss_raw.switching import INS_ONLY, LOOSE, TIGHT, Switching, select_mode
 from agnav_fusion.gnss_raw.tight import TightFilter, antenna_state
-from agnav_fusion.ins import InsEkf, InsEkfSettings, InsState, Mechanization
+from agnav_fusion.ins import GnssSample, InsEkf, InsEkfSettings, InsState, Mechanization
 from agnav_fusion.ins import error_model as em
 
 
@@ -50,3 +50,17 @@ def test_hand_over_keeps_state_and_covariance():
     ekf.adopt(**state)
     assert ekf.t == tight.t and np.array_equal(ekf.p, tight.p[:n, :n]) and ekf.crab == tight.ins.crab
     assert np.allclose(antenna_state(ekf.mech, ekf.s.lever_gnss_frd, ekf.omega_b)[0], tight.antenna()[0], atol=0)
+
+
+def test_a_fix_after_a_silence_is_no_fixed_one_until_its_status_says_so():
+    """The receiver's status may follow its fix: the last status (RTK fixed, before a 2.2 s blockage) says nothing
+    about the first fix after the blockage (float), which leaves the filter INS only; a fresh fixed status
+    returns it to loose coupling."""
+    switching = Switching(aligned_ekf(), np.zeros(3))
+    switching.mode = INS_ONLY                  # no satellites in the blockage
+    switching.receiver_status(True, 47.8)
+    switching.add_gnss(GnssSample(50.0, 0.63, 2.44, 50.0, np.eye(3) * 1e-4))
+    assert switching.mode == INS_ONLY
+    switching.receiver_status(True, 50.2)
+    switching.add_gnss(GnssSample(50.2, 0.63, 2.44, 50.0, np.eye(3) * 1e-4))
+    assert switching.mode == LOOSE

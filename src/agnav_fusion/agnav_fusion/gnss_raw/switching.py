@@ -61,6 +61,7 @@ class Switching:
         self.transitions = []     # {t, from, to, jump_sigma, jump_m}
         self.last_solution = None  # TightSolution of the last tight epoch
         self._receiver_fixed = None  # latest receiver_status (None: each fix's fix_type)
+        self._status_t = -math.inf   # its stamp
         self._last_raw_t = -math.inf  # last tight epoch with an update
         self._aligned = False       # the loose filter's heading has aligned once (raw epochs wait for it)
 
@@ -85,13 +86,18 @@ class Switching:
         """Base antenna ECEF [m] (a tight filter running keeps its own until the next switch)."""
         self.base_pos = np.asarray(base_pos, float)
 
-    def receiver_status(self, fixed):
-        """The receiver's latest status: RTK fixed or not; it decides for the fixes from now on."""
-        self._receiver_fixed = bool(fixed)
+    def receiver_status(self, fixed, t):
+        """The receiver's status at epoch t: RTK fixed or not; it decides for the fixes up to fix_timeout after it
+        (a fix after a longer silence is no fixed one until a status says so: its own status may follow it)."""
+        self._receiver_fixed, self._status_t = bool(fixed), t
 
     def add_gnss(self, g):
         """A receiver fix (GnssSample); fused only while loosely coupled."""
-        if (g.fix_type == RTK_FIXED) if self._receiver_fixed is None else self._receiver_fixed:
+        if self._receiver_fixed is None:
+            fixed = g.fix_type == RTK_FIXED
+        else:
+            fixed = self._receiver_fixed and g.t - self._status_t <= self.fix_timeout
+        if fixed:
             self._last_fixed_t = g.t
             self._switch(LOOSE)
         if self.mode == LOOSE:
