@@ -44,7 +44,7 @@ class InsTightNavigation(InsNavigation):
         return None if self.ekf is None else self.ekf.mode
 
     def receiver_status(self, t, rtk_fixed):
-        """The receiver's status at epoch t: RTK fixed or not (it decides for the fixes that follow)."""
+        """The receiver's status at epoch t: RTK fixed or not (it decides for the fixes up to fix_timeout after it)."""
         if self.ekf is not None:
             self.ekf.receiver_status(rtk_fixed, t)
 
