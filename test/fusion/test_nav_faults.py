@@ -117,6 +117,14 @@ def test_imu_gaps_are_bridged_with_growing_covariance(gap, clean_worst):
     assert_honest(out, clean_worst)
 
 
+def test_a_receiver_back_after_an_outage_loses_no_fix_and_no_velocity():
+    """The IMU clock vouches for the stamps after a 10 s outage: neither the fixes nor the receiver velocities wait
+    for 3 more stamps to confirm the jump (the velocities did: 3 lost after every outage of the campaign)."""
+    nsm, out = drive(seconds=70.0, outage=[(40.0, 50.0)])
+    assert not [k for k in nsm.counters if k.endswith("future_stamp")], nsm.counters
+    assert nsm.counters["gnss"] == 59 and errors(out, 52.0)[0] < 0.08
+
+
 def test_a_nan_velocity_drops_the_velocity_not_the_fix():
     def mutate(kind, args):
         return (*args[:3], np.full(3, math.nan)) if kind == "gnss" and during(args[0]) else args

@@ -1,8 +1,9 @@
 """Navigation front end, input side: what every estimator needs once before a measurement reaches it.
 
 `InputGuard` applies agnav_common.input_guard's rules per stream (imu, incl, gnss, vel, wheel): finite values,
-stream time (bad, backwards and lone future stamps are rejected and never move the clock), GNSS stamps against the
-IMU clock, fix covariances (NaN/negative/indefinite rejected; zero or implausibly small ones replaced by the
+stream time (bad, backwards and lone future stamps are rejected and never move the clock), GNSS fix and velocity
+stamps against the IMU clock (which vouches for the receiver back after an outage), fix covariances
+(NaN/negative/indefinite rejected; zero or implausibly small ones replaced by the
 receiver's last good covariance, or floored), a stuck IMU (the same reading repeated bit for bit: dropped, so the
 estimator bridges it as a gap; every value passed to accept counts: gyro and accelerometer together for an INS),
 and counts every event in totals and over a recent window, so that diagnostics describe the present;
@@ -37,8 +38,8 @@ class InputGuard:
         self.settings = s = settings or InputGuardSettings()
         clock = StreamClockSettings(max_jump=s.max_stamp_jump)
         self.clocks = {k: StreamClock(clock) for k in STREAMS}
-        self.clocks["gnss"] = StreamClock(StreamClockSettings(max_jump=s.max_stamp_jump, max_lead=s.gnss_max_lead,
-                                                              vouch=True))
+        receiver = StreamClockSettings(max_jump=s.max_stamp_jump, max_lead=s.gnss_max_lead, vouch=True)
+        self.clocks["gnss"], self.clocks["vel"] = StreamClock(receiver), StreamClock(receiver)
         self.clocks.update({k: StreamClock(c) for k, c in (clocks or {}).items()})
         self.totals = {}
         self.events = EventWindow(s.diagnostic_window)

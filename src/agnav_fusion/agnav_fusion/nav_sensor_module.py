@@ -99,7 +99,7 @@ class NavSensorModule:
             self._antenna_fixes.popleft()
         if vel_enu is not None:
             vel_var = self.guard.velocity_variance(vel_var, self.settings.velocity_sigma ** 2)
-            if vel_var is None or not self.guard.accept("vel", t, vel_enu):
+            if vel_var is None or not self.guard.accept("vel", t, vel_enu, ref=ref):
                 vel_enu = None
         self._pending_gnss.append((t, antenna_enu, cov, None if vel_enu is None else np.asarray(vel_enu, float),
                                    vel_var, differenced))
