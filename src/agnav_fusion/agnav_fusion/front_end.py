@@ -2,10 +2,10 @@
 
 `InputGuard` applies agnav_common.input_guard's rules per stream (imu, incl, gnss, vel, wheel): finite values,
 stream time (bad, backwards and lone future stamps are rejected and never move the clock), GNSS fix and velocity
-stamps against the IMU clock (which vouches for the receiver back after an outage), fix covariances
-(NaN/negative/indefinite rejected; zero or implausibly small ones replaced by the
-receiver's last good covariance, or floored), a stuck IMU (the same reading repeated bit for bit: dropped, so the
-estimator bridges it as a gap; every value passed to accept counts: gyro and accelerometer together for an INS),
+stamps against the IMU clock (which vouches for the receiver back after an outage), fix covariances (NaN/negative/
+indefinite rejected; zero or implausibly small ones replaced by the receiver's last good covariance, or floored), a
+stuck IMU (the same reading repeated bit for bit: dropped, so the estimator bridges it as a gap; every value passed
+to accept counts: gyro and accelerometer together for an INS),
 and counts every event in totals and over a recent window, so that diagnostics describe the present;
 `on_problem(event)` (e.g. a node publishing its diagnostics at once, rate-limited by `Urgent`) sees every problem.
 A stream's clock rules can be set per stream (`clocks`); `Overdue` tells when a periodic stream (GNSS fixes, the
