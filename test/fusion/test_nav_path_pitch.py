@@ -104,3 +104,37 @@ def test_an_rtk_float_wander_is_not_a_climb():
     assert math.sqrt(np.mean(err[floating] ** 2)) < math.radians(0.07)
     assert np.abs(err).max() < math.radians(0.15)
     assert np.all(np.abs(err) <= 3 * sig)
+
+
+def test_a_receiver_class_change_is_not_a_climb():
+    """Level and straight at 1.2 m/s, RTK 10 Hz without a receiver velocity and with a 15 s float episode whose
+    error is a steady (0, 0.1, 0.45) m: its start and end move the fixes by that much between two fixes 0.1 s
+    apart. A fix difference across a change of the receiver's error class (the slow variance steps) is no climb
+    (campaign seed 13: a 28 deg path pitch at 14 sigma from the float -> fixed step, pitch 0.25 deg RMS); with
+    path_pitch_max_slow off (the float fixes' differences are used), the pitch stays within 0.1 deg about the
+    steps, and within 3 sigma."""
+    ekf = NavEKFSettings(gnss_bias_tau=40.0, gnss_white_sigma=0.01)
+    nsm = NavSensorModule(NavSensorModuleSettings(lever_flu=LEVER, ekf=ekf, path_pitch_max_slow=math.inf))
+    rng = np.random.default_rng(5)
+    dt, s, out, observed = 1.0 / RATE, 0.0, [], []
+    observe = nsm.estimator.pitch_filter.observe
+    nsm.estimator.pitch_filter.observe = lambda angle, var: observed.append((angle, var)) or observe(angle, var)
+    for k in range(1, int(70 * RATE)):
+        t = k * dt
+        v = 1.2 * float(np.clip(t - 5.0, 0.0, 1.0))
+        s += v * dt
+        if k % 10 == 0:
+            floating = 30.0 <= t < 45.0
+            ant = np.array([s, 0.0, 0.0]) + np.array(LEVER) + rng.normal(0, [0.008, 0.008, 0.016])
+            nsm.gnss(t, ant + floating * np.array([0.0, 0.1, 0.45]),
+                     np.diag([7e-5, 7e-5, 2.8e-4]) + floating * np.diag([0.06, 0.06, 0.24]))
+        nsm.inclinometer(t, rng.normal(0, 0.003), rng.normal(0, 0.003))
+        state = nsm.imu(t, rng.normal(0, 0.002, 3))
+        if state is not None and t > 20.0:
+            out.append((t, state.rpy[1], math.sqrt(state.pose_cov[4, 4])))
+    t, err, sig = np.array(out).T
+    z = [abs(angle) / math.sqrt(var) for angle, var in observed]
+    steps = (t > 29.0) & (t < 50.0)
+    assert len(z) > 40 and max(z) < 5.0
+    assert np.abs(err[steps]).max() < math.radians(0.1)
+    assert np.all(np.abs(err) <= 3 * sig)

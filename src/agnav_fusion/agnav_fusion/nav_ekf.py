@@ -30,6 +30,12 @@ F_AT = np.ravel_multi_index(np.array([(IX, IPHI), (IX, IC), (IY, IPHI), (IY, IC)
                                       (IR, IR)]).T, (N, N))  # F's entries that predict() fills
 
 
+def same_error_class(slow_var, other):
+    """Two fixes' slow-error variances of one receiver class (within 4x): across a class change (RTK fixed <->
+    float, DGPS) the slow error jumps, so neither it nor a difference of fixes carries over."""
+    return 0.25 * slow_var <= other <= 4.0 * slow_var
+
+
 @dataclass
 class NavEKFSettings:
     rate_noise: float = 0.003      # rad/s/sqrt(Hz) heading random walk from gyro noise
@@ -85,7 +91,7 @@ class NavEKF:
             return cov, 0.0
         total = float(np.trace(cov)) / 2
         old, self.gnss_bias_var = self.gnss_bias_var, max(total - s.gnss_white_sigma ** 2, 0.0)
-        self.bias_changed = not 0.25 * old <= self.gnss_bias_var <= 4.0 * old
+        self.bias_changed = not same_error_class(old, self.gnss_bias_var)
         return cov - self.gnss_bias_var * np.eye(2), self.gnss_bias_var
 
     def bias_change_variance(self, interval):

@@ -16,6 +16,7 @@ import numpy as np
 from agnav_fusion import tilt_correction
 from agnav_fusion.front_end import InputGuard, Overdue
 from agnav_fusion.nav_agnav import AgnavEstimator
+from agnav_fusion.nav_ekf import same_error_class
 from agnav_fusion.nav_settings import MOUNTS, NavSensorModuleSettings, NavState, Sample, cross  # noqa: F401 (re-exported)
 from agnav_fusion.nav_thesis import ThesisEstimator
 
@@ -57,7 +58,7 @@ class NavSensorModule:
         self._track = None           # (t, xy, velocity) of the latest fix, accepted or not
         self._smooth = False         # the latest fix continues that track without a step
         self.last_fix = None         # latest accepted corrected fix (t, xyz, cov)
-        self._climb_fixes = deque()  # (t, corrected ENU, white variance) of the last still_baseline s: path pitch
+        self._climb_fixes = deque()  # (t, corrected ENU, white, slow variance) of the last still_baseline s: path pitch
         self._antenna_fixes = deque()  # (t, antenna ENU) of the last DIFFERENCE_S: tells fix-differenced velocities
         self._state = None
 
@@ -221,17 +222,21 @@ class NavSensorModule:
             self.estimator.path_pitch(k, t, float(vel[2] - lever_vel[2]), float(np.hypot(*v_ref)), vel_var * vertical)
             return
         white = float(np.trace(self.estimator.white_fix_covariance(cov[:2, :2]))) / 2
-        fixes = self._climb_fixes
-        fixes.append((t, corrected, white))
+        slow, fixes = self.estimator.ekf.gnss_bias_var, self._climb_fixes
+        if fixes and not same_error_class(fixes[-1][3], slow):  # the slow error jumped: no difference across
+            fixes.clear()
+        fixes.append((t, corrected, white, slow))
+        if slow > s.path_pitch_max_slow ** 2:  # a float or DGPS error's wander runs through many differences alike
+            return
         while len(fixes) > 2 and fixes[1][0] <= t - s.still_baseline:
             fixes.popleft()
-        t0, p0, w0 = fixes[0]
+        t0, p0, w0, _ = fixes[0]
         mid = t - (t - t0) / 2
         if t - t0 < s.still_baseline or hist[0].t > mid:
             return
         d = corrected - p0
         fixes.clear()  # the next difference starts here: no fix's noise counted twice
-        fixes.append((t, corrected, white))
+        fixes.append((t, corrected, white, slow))
         self.estimator.path_pitch(max(i for i in range(k + 1) if hist[i].t <= mid), t, d[2] / (t - t0),
                                   float(np.hypot(d[0], d[1])) / (t - t0),
                                   (w0 + white + self.estimator.ekf.bias_change_variance(t - t0)) * vertical

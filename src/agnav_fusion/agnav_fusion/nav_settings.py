@@ -61,6 +61,9 @@ class NavSensorModuleSettings:
     #                                           tilt sensor's lever-arm acceleration: sway passes, differentiated noise not
     path_pitch_speed: float = 1.0             # m/s: faster, the GNSS climb over the ground speed is the pitch (agnav)
     path_pitch_sigma: float = 0.015           # rad, body pitch off the path's over 1 s of fixes (sway, terrain waves)
+    path_pitch_max_slow: float = 0.05         # m, fix differences give the climb only while the fixes' slow error
+    #                                           sigma is below this (RTK fixed): a float or DGPS wander moves many
+    #                                           successive differences alike
     fix_accel_gain: float = 0.3               # smoothing of the fixes' speed change (inclinometer compensation)
     max_accel: float = 3.0                    # m/s^2, along-track accelerometer reading clipped (bumps) (agnav)
     still_rate_sigma: float = 0.01            # rad/s per IMU sample of a still gyro (ENV-05F 0.25 deg/s; 2.4x de-lagged)
