@@ -346,6 +346,8 @@ class AgnavEstimator:
         ekf.x[IPHI] = math.remainder(course - crab, 2 * math.pi)
         ekf.P[IPHI, :] = ekf.P[:, IPHI] = -ekf.P[:, IC:IR] @ h
         ekf.P[IPHI, IPHI] = var + crab_var
+        self.recent_fixes.clear()  # tilt-corrected on the old heading (the lever turned with it): no difference across
+        self.m.forget_fix_differences()
 
     def _standstill(self, speed):
         """Standstill innovation at a receiver speed below the still threshold: zero within that speed (a creeping
@@ -375,12 +377,11 @@ class AgnavEstimator:
 
     def rate_corrections(self):
         """(roll, thesis pitch, clockwise yaw) gyro corrections."""
-        yaw = -float(self.ekf.x[IB]) if self.ekf.x is not None else 0.0
-        return -self.roll_filter.bias, -self.pitch_filter.bias, yaw
+        return -self.roll_filter.bias, -self.pitch_filter.bias, 0.0 if self.ekf.x is None else -float(self.ekf.x[IB])
 
     def output(self, snap, position, pose_cov, twist_cov):
         """Fill the navigation part of the output; -> (speed, heading_valid, position_valid)."""
-        m = self.m
+        m, s = self.m, self.m.settings
         if snap.nav is not None:
             x, P = snap.nav
             position[:2] = x[:2]
@@ -389,7 +390,6 @@ class AgnavEstimator:
             twist_cov[5, 5] = P[IB, IB] + m.settings.ekf.rate_noise ** 2
             # valid once within heading_valid_sigma, until beyond heading_lost_sigma or forgotten: an IMU gap or an
             # outage widens the published covariance, it does not silence the output
-            s = m.settings
             self.heading_valid = self.heading_known and P[IPHI, IPHI] <= (
                 s.heading_lost_sigma if self.heading_valid else s.heading_valid_sigma) ** 2
             return float(x[IV]), self.heading_valid, True

@@ -59,6 +59,7 @@ class NavSensorModule:
         self._smooth = False         # the latest fix continues that track without a step
         self.last_fix = None         # latest accepted corrected fix (t, xyz, cov)
         self._climb_fixes = deque()  # (t, corrected ENU, white, slow variance) of the last still_baseline s: path pitch
+        self._climb_skip = False     # the fix being fused was corrected on a heading since replaced
         self._antenna_fixes = deque()  # (t, antenna ENU) of the last DIFFERENCE_S: tells fix-differenced velocities
         self._state = None
 
@@ -212,11 +213,19 @@ class NavSensorModule:
         if hasattr(self.estimator, "path_pitch"):
             self._path_pitch(k, t, corrected, cov, v_ref, vel, vel_var, lever_vel, differenced)
 
+    def forget_fix_differences(self):
+        """The heading was set anew: the fixes kept, and the one being fused, were tilt-corrected on the old one."""
+        self._climb_fixes.clear()
+        self._climb_skip = True
+
     def _path_pitch(self, k, t, corrected, cov, v_ref, vel, vel_var, lever_vel, differenced):
         """Climb and ground speed at the epoch (a receiver's velocity) or over the still_baseline s since an earlier
         fix (their difference, for the sample in the middle; the next difference starts at this fix); the vertical
         noise is the horizontal one scaled as in the fix's covariance: the pitch of the path, for the estimator."""
         s, hist = self.settings, self.history
+        if self._climb_skip:
+            self._climb_skip = False
+            return
         vertical = max(float(cov[2, 2]) / max(float(cov[0, 0] + cov[1, 1]) / 2, 1e-12), 1.0)  # VDOP/HDOP squared
         if v_ref is not None and not differenced:
             self.estimator.path_pitch(k, t, float(vel[2] - lever_vel[2]), float(np.hypot(*v_ref)), vel_var * vertical)
