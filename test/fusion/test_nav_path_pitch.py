@@ -49,6 +49,22 @@ def climb(settings, gnss_hz, doppler, seed=4, incl_until=math.inf):
     return np.array(out)
 
 
+def level_drive(nsm, rng, seconds, fix):
+    """Level and straight, starting at 5 s to 1.2 m/s at 6 s: fix(t, true antenna ENU) every 0.1 s, the level
+    inclinometer and a still gyro with noise every sample. -> t, pitch error, its sigma (arrays, after 20 s)."""
+    dt, s, out = 1.0 / RATE, 0.0, []
+    for k in range(1, int(seconds * RATE)):
+        t = k * dt
+        s += 1.2 * float(np.clip(t - 5.0, 0.0, 1.0)) * dt
+        if k % 10 == 0:
+            fix(t, np.array([s, 0.0, 0.0]) + np.array(LEVER))
+        nsm.inclinometer(t, rng.normal(0, 0.003), rng.normal(0, 0.003))
+        state = nsm.imu(t, rng.normal(0, 0.002, 3))
+        if state is not None and t > 20.0:
+            out.append((t, state.rpy[1], math.sqrt(state.pose_cov[4, 4])))
+    return np.array(out).T
+
+
 @pytest.mark.parametrize("gnss_hz, doppler", [(1.0, False), (5.0, True)])
 def test_the_path_pitch_holds_the_pitch_when_the_inclinometer_is_lost(gnss_hz, doppler):
     """The inclinometer stops at 20 s, in the cruise up the ramp (1 Hz fixes without a receiver velocity: fix
@@ -84,22 +100,16 @@ def test_an_rtk_float_wander_is_not_a_climb():
     rng = np.random.default_rng(2)
     ekf = NavEKFSettings(gnss_bias_tau=40.0, gnss_white_sigma=0.01)
     nsm = NavSensorModule(NavSensorModuleSettings(lever_flu=LEVER, ekf=ekf))
-    dt, s, wander, out = 1.0 / RATE, 0.0, np.zeros(3), []
-    scale = np.array([0.15, 0.15, 0.3])
-    for k in range(1, int(80 * RATE)):
-        t = k * dt
-        v = 1.2 * float(np.clip(t - 5.0, 0.0, 1.0))
-        s += v * dt
-        if k % 10 == 0:
-            floating = 30.0 <= t < 50.0
-            wander = math.exp(-0.1 / 20.0) * wander + math.sqrt(1 - math.exp(-0.2 / 20.0)) * scale * rng.normal(size=3)
-            ant = np.array([s, 0.0, 0.0]) + np.array(LEVER) + rng.normal(0, [0.01, 0.01, 0.02]) + floating * wander
-            nsm.gnss(t, ant, np.diag(np.r_[1.5e-4, 1.5e-4, 6e-4] + floating * scale ** 2))
-        nsm.inclinometer(t, rng.normal(0, 0.003), rng.normal(0, 0.003))
-        state = nsm.imu(t, rng.normal(0, 0.002, 3))
-        if state is not None and t > 20.0:
-            out.append((t, state.rpy[1], math.sqrt(state.pose_cov[4, 4])))
-    t, err, sig = np.array(out).T
+    scale, wander = np.array([0.15, 0.15, 0.3]), [np.zeros(3)]
+    decay, step = math.exp(-0.1 / 20.0), math.sqrt(1 - math.exp(-0.2 / 20.0))  # 20 s Gauss-Markov at 10 Hz
+
+    def fix(t, antenna):
+        floating = 30.0 <= t < 50.0
+        wander[0] = decay * wander[0] + step * scale * rng.normal(size=3)
+        nsm.gnss(t, antenna + rng.normal(0, [0.01, 0.01, 0.02]) + floating * wander[0],
+                 np.diag(np.r_[1.5e-4, 1.5e-4, 6e-4] + floating * scale ** 2))
+
+    t, err, sig = level_drive(nsm, rng, 80.0, fix)
     floating = (t > 30.0) & (t < 55.0)
     assert math.sqrt(np.mean(err[floating] ** 2)) < math.radians(0.07)
     assert np.abs(err).max() < math.radians(0.15)
@@ -116,23 +126,15 @@ def test_a_receiver_class_change_is_not_a_climb():
     ekf = NavEKFSettings(gnss_bias_tau=40.0, gnss_white_sigma=0.01)
     nsm = NavSensorModule(NavSensorModuleSettings(lever_flu=LEVER, ekf=ekf, path_pitch_max_slow=math.inf))
     rng = np.random.default_rng(5)
-    dt, s, out, observed = 1.0 / RATE, 0.0, [], []
-    observe = nsm.estimator.pitch_filter.observe
+    observed, observe = [], nsm.estimator.pitch_filter.observe
     nsm.estimator.pitch_filter.observe = lambda angle, var: observed.append((angle, var)) or observe(angle, var)
-    for k in range(1, int(70 * RATE)):
-        t = k * dt
-        v = 1.2 * float(np.clip(t - 5.0, 0.0, 1.0))
-        s += v * dt
-        if k % 10 == 0:
-            floating = 30.0 <= t < 45.0
-            ant = np.array([s, 0.0, 0.0]) + np.array(LEVER) + rng.normal(0, [0.008, 0.008, 0.016])
-            nsm.gnss(t, ant + floating * np.array([0.0, 0.1, 0.45]),
-                     np.diag([7e-5, 7e-5, 2.8e-4]) + floating * np.diag([0.06, 0.06, 0.24]))
-        nsm.inclinometer(t, rng.normal(0, 0.003), rng.normal(0, 0.003))
-        state = nsm.imu(t, rng.normal(0, 0.002, 3))
-        if state is not None and t > 20.0:
-            out.append((t, state.rpy[1], math.sqrt(state.pose_cov[4, 4])))
-    t, err, sig = np.array(out).T
+
+    def fix(t, antenna):
+        floating = 30.0 <= t < 45.0
+        nsm.gnss(t, antenna + rng.normal(0, [0.008, 0.008, 0.016]) + floating * np.array([0.0, 0.1, 0.45]),
+                 np.diag([7e-5, 7e-5, 2.8e-4]) + floating * np.diag([0.06, 0.06, 0.24]))
+
+    t, err, sig = level_drive(nsm, rng, 70.0, fix)
     z = [abs(angle) / math.sqrt(var) for angle, var in observed]
     steps = (t > 29.0) & (t < 50.0)
     assert len(z) > 40 and max(z) < 5.0
