@@ -223,12 +223,12 @@ class NavSensorModule:
         fix (their difference, for the sample in the middle; the next difference starts at this fix); the vertical
         noise is the horizontal one scaled as in the fix's covariance: the pitch of the path, for the estimator."""
         s, hist = self.settings, self.history
-        if self._climb_skip:
-            self._climb_skip = False
-            return
         vertical = max(float(cov[2, 2]) / max(float(cov[0, 0] + cov[1, 1]) / 2, 1e-12), 1.0)  # VDOP/HDOP squared
-        if v_ref is not None and not differenced:
+        skip, self._climb_skip = self._climb_skip, False
+        if v_ref is not None and not differenced:  # (no heading in it)
             self.estimator.path_pitch(k, t, float(vel[2] - lever_vel[2]), float(np.hypot(*v_ref)), vel_var * vertical)
+            return
+        if skip:
             return
         white = float(np.trace(self.estimator.white_fix_covariance(cov[:2, :2]))) / 2
         slow, fixes = self.estimator.ekf.gnss_bias_var, self._climb_fixes
