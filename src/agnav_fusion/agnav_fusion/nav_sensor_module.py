@@ -232,11 +232,12 @@ class NavSensorModule:
             return
         white = float(np.trace(self.estimator.white_fix_covariance(cov[:2, :2]))) / 2
         slow, fixes = self.estimator.ekf.gnss_bias_var, self._climb_fixes
+        if slow > s.path_pitch_max_slow ** 2:  # a float or DGPS error's wander runs through many differences alike
+            fixes.clear()
+            return
         if fixes and not same_error_class(fixes[-1][3], slow):  # the slow error jumped: no difference across
             fixes.clear()
         fixes.append((t, corrected, white, slow))
-        if slow > s.path_pitch_max_slow ** 2:  # a float or DGPS error's wander runs through many differences alike
-            return
         while len(fixes) > 2 and fixes[1][0] <= t - s.still_baseline:
             fixes.popleft()
         t0, p0, w0, _ = fixes[0]
