@@ -92,18 +92,21 @@ class Source:
         if self.graph:
             self.incl.header.stamp = stamp
             self.incl_pub.publish(self.incl)
+        gnss = []  # built before the IMU's clock starts: the source's own work is not the graph's latency
+        for j, due in enumerate(self.next_fix if self.graph else ()):
+            if t_ns >= due:
+                gnss += self.fix(stamp, t_ns)
+                self.next_fix[j] += 1_000_000_000
         self.imu.header.stamp = stamp
         w, a, n = self.imu.angular_velocity, self.imu.linear_acceleration, self.noise[len(self.sent) % 4096]
         w.x, w.y, w.z, a.x, a.y, a.z = n[0], n[1], n[2], n[3], n[4], 9.80665 + n[5]
         self.sent[t_ns // GRID_NS] = (time.monotonic(), self.phase)
         self.imu_pub.publish(self.imu)
-        if self.graph:
-            for j, due in enumerate(self.next_fix):
-                if t_ns >= due:
-                    self.fix(stamp, t_ns)
-                    self.next_fix[j] += 1_000_000_000
+        for pub, msg in gnss:  # after the IMU of their epoch, as a receiver's latency has them
+            pub.publish(msg)
 
     def fix(self, stamp, t_ns):
+        """The /gnss/fix and /gnss/vel of epoch t_ns as (publisher, message) pairs."""
         self.first_ns = self.first_ns or t_ns
         east = SPEED * (t_ns - self.first_ns) * 1e-9
         lat, lon, alt = self.plane.to_geodetic(east, 0.0, 2.0)  # antenna 2 m up (gnss_link), level vehicle
@@ -115,8 +118,7 @@ class Source:
         vel.header.stamp, vel.header.frame_id = stamp, "gnss_link"
         vel.twist.twist.linear.x = SPEED
         vel.twist.covariance = [0.05 ** 2 if i in (0, 7, 14) else 0.0 for i in range(36)]
-        self.fix_pub.publish(fix)
-        self.vel_pub.publish(vel)
+        return [(self.fix_pub, fix), (self.vel_pub, vel)]
 
 
 class Probe:
