@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from agnav_common.frames import euler_from_quaternion, heading_from_yaw
-from agnav_common.geodesy import LocalTangentPlane
+from agnav_common.geodesy import offset_geodetic
 from agnav_common.input_guard import StreamClock, covariance
 from agnav_common.stamps import to_sec
 from sensor_msgs.msg import NavSatFix, NavSatStatus
@@ -94,8 +94,7 @@ class FixCorrection:
         heading, pitch = float(heading_from_yaw(yaw)), -pitch  # thesis conventions: heading, pitch nose-up
         lever = tilt_correction.lever_from_flu(mount)
         offset = tilt_correction.antenna_offset(lever, heading, pitch, roll)  # ENU, eq 4.23
-        here = LocalTangentPlane(msg.latitude, msg.longitude, msg.altitude)
-        lat, lon, alt = here.to_geodetic(-offset[0], -offset[1], -offset[2])  # eq 4.24
+        lat, lon, alt = offset_geodetic(msg.latitude, msg.longitude, msg.altitude, *(-offset))  # eq 4.24
         out = NavSatFix(status=msg.status)  # a header of its own: the input's may be shared with other subscribers
         out.header.stamp, out.header.frame_id = msg.header.stamp, self.base_frame
         out.latitude, out.longitude, out.altitude = float(lat), float(lon), float(alt)
