@@ -173,16 +173,17 @@ class AttitudeKF:
         imu = sum(map(_is_imu, inputs))
         if self.log is not None:
             del self.log[len(self.log) - imu:]
-        self._inputs, n = [], 0
-        for entry in inputs:
+        self._inputs = kept = []
+        step, n, last_before = self._step, 0, imu - after
+        for entry in inputs:  # (the per-fix path: no unpacking into lists)
             if not _is_imu(entry):
                 self.observe(*entry[1:])
                 continue
-            rate, incl, dt, accel_error, *rest = entry[1:]
+            _, rate, incl, dt, accel_error, accel_var, tau, tau_rel = entry
             n += 1
-            accel_error += change if n <= imu - after else change_after
-            self._inputs.append((self._state(), rate, incl, dt, accel_error, *rest))
-            self._step(rate, incl, dt, accel_error, *rest)
+            accel_error += change if n <= last_before else change_after
+            kept.append((self._state(), rate, incl, dt, accel_error, accel_var, tau, tau_rel))
+            step(rate, incl, dt, accel_error, accel_var, tau, tau_rel)
 
     def add_bias_variance(self, var, spread=0.0):
         """The gyro bias may move by this much (rad/s)^2 (a vibratory gyro's motion bias at a start) over the next
