@@ -145,8 +145,13 @@ def test_fix_correction_waits_for_the_attitude_of_the_epoch_and_leaves_the_input
     assert len(out) == 1 and events == ["corrected"]
     assert np.allclose(plane.to_enu(out[0].latitude, out[0].longitude, out[0].altitude), base, atol=1e-3)
     assert out[0].header.frame_id == "base_link" and fix.header.frame_id == "gnss_link"
+    fix.header.stamp = to_stamp(200.005)  # an epoch the stream has passed: corrected at the next attitude or
+    corr.add_fix(fix)                     # process(), never inside add_fix (the state being published goes first)
+    assert len(out) == 1 and len(corr.pending) == 1
+    corr.process()
+    assert len(out) == 2 and events == ["corrected", "corrected"]
     fix.header.stamp = to_stamp(203.0)
     corr.add_fix(fix)
     now[0] = 2.5  # attitude_wait (2 s) of node time without an attitude near 203 s
     corr.process()
-    assert events == ["corrected", "no_attitude"] and len(out) == 1
+    assert events == ["corrected", "corrected", "no_attitude"] and len(out) == 2
