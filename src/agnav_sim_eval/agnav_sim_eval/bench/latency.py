@@ -3,12 +3,13 @@
 A synthetic source (a vehicle driving straight east at 1 m/s: /imu/data_raw + /inclinometer at the IMU rate,
 /gnss/fix + /gnss/vel at 1 Hz per receiver, the config's mounts on /tf_static) feeds the nsm graph in real time;
 a probe matches each /odometry/filtered to the /imu/data_raw of the same stamp: latency = arrival - wall clock taken
-just before that IMU publish. Layouts: `one_process` (graph, source and probe on one EventsExecutor in one process,
-as `agnav run --live` runs drivers and nodes) and `processes` (each graph node its own OS process via its console
-script, source and probe in this one). Baseline in the same run and layout: a bare rclpy relay (one subscription
-that republishes the same Imu) - `bare_hop` is source -> relay (one hop), `bare_relay` source -> relay -> probe
-(two hops, like source -> nav node -> probe). The node takes one fix topic, so 2-3 receivers publish their 1 Hz
-fixes interleaved on /gnss/fix. A phase breaks on dropped outputs, p99 > 10x the bare hop, or a source below rate.
+just before that IMU publish (a fix epoch's /gnss/fix and /gnss/vel are built before it and published after it).
+Layouts: `one_process` (graph, source and probe on one EventsExecutor in one process, as `agnav run --live` runs
+drivers and nodes) and `processes` (each graph node its own OS process via its console script, source and probe in
+this one). Baseline in the same run and layout: a bare rclpy relay (one subscription that republishes the same
+Imu) - `bare_hop` is source -> relay (one hop), `bare_relay` source -> relay -> probe (two hops, like source -> nav
+node -> probe). The node takes one fix topic, so 2-3 receivers publish their 1 Hz fixes interleaved on /gnss/fix.
+A phase breaks on dropped outputs, p99 > 10x the bare hop, or a source below rate.
 """
 import argparse
 import json
