@@ -62,8 +62,9 @@ class FixCorrection:
         if reason:
             self.count(reason)
             return
-        self.pending.append((t, msg, cov, known, self.now()))  # corrected at the next attitude or process(): off
-        # the path of the state that is being published (a fix arrives after the IMU sample of its epoch)
+        # corrected at the next attitude or process(), not here: a fix arrives after the IMU sample of its epoch,
+        # whose state is being published
+        self.pending.append((t, msg, cov, known, self.now()))
 
     def process(self):
         """Correct the waiting fixes whose epoch the attitude stream has reached (the attitude may arrive after the
