@@ -15,7 +15,7 @@ from agnav_common.frames import cross_floats
 from agnav_fusion.attitude_kf import AttitudeKF
 from agnav_fusion.heading_chord import HeadingChord
 from agnav_fusion.nav_ekf import IA, IB, IC, IPHI, IR, IS, IV, N, NavEKF
-from agnav_fusion.nav_settings import GRAVITY, euler_rates
+from agnav_fusion.nav_settings import GRAVITY, euler_rates, last_at
 from agnav_fusion.tilt_correction import antenna_offset, offset_heading_jacobian, tilt_variance
 
 # flat indices of the (x, y, yaw) block of the pose covariance and of the (X, Y, phi) block of P
@@ -209,7 +209,7 @@ class AgnavEstimator:
             mid = hist[k].t - baseline / 2
             if hist[0].t > mid:
                 return 0.0
-            k = max(i for i in range(k + 1) if hist[i].t <= mid)
+            k = last_at(hist, mid)
         nav = hist[k].nav
         if speed is None or vel_var is None or nav is None:
             return 0.0

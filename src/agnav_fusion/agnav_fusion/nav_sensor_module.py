@@ -17,7 +17,7 @@ from agnav_fusion import tilt_correction
 from agnav_fusion.front_end import InputGuard, Overdue
 from agnav_fusion.nav_agnav import AgnavEstimator
 from agnav_fusion.nav_ekf import same_error_class
-from agnav_fusion.nav_settings import MOUNTS, NavSensorModuleSettings, NavState, Sample, cross  # noqa: F401 (re-exported)
+from agnav_fusion.nav_settings import MOUNTS, NavSensorModuleSettings, NavState, Sample, cross, last_at  # noqa: F401 (re-exported)
 from agnav_fusion.nav_thesis import ThesisEstimator
 
 ESTIMATORS = {"agnav": AgnavEstimator, "thesis": ThesisEstimator}
@@ -193,7 +193,7 @@ class NavSensorModule:
         if hist[0].t > t:  # the history moved past the epoch while the fix waited (an IMU gap)
             self.guard.count("gnss_too_old")
             return
-        k = max(i for i in range(len(hist)) if hist[i].t <= t)
+        k = last_at(hist, t)
         snap = hist[k]
         if t - snap.t > self.settings.max_dt:  # inside an IMU gap: no attitude or track to place the fix on
             self.guard.count("gnss_in_imu_gap")
@@ -247,7 +247,7 @@ class NavSensorModule:
         d = corrected - p0
         fixes.clear()  # the next difference starts here: no fix's noise counted twice
         fixes.append((t, corrected, white, slow))
-        self.estimator.path_pitch(max(i for i in range(k + 1) if hist[i].t <= mid), t, d[2] / (t - t0),
+        self.estimator.path_pitch(last_at(hist, mid), t, d[2] / (t - t0),
                                   float(np.hypot(d[0], d[1])) / (t - t0),
                                   (w0 + white + self.estimator.ekf.bias_change_variance(t - t0)) * vertical
                                   / (t - t0) ** 2)

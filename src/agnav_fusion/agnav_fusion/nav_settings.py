@@ -1,5 +1,6 @@
 """Navigation sensor module types (SPEC §6.3): settings, the REP-103 output NavState, the IMU history sample, and
 small per-sample helpers shared by the module and its estimators."""
+import bisect
 import math
 from dataclasses import dataclass, field
 
@@ -120,6 +121,11 @@ class Sample:
     still: bool = False       # agnav: vehicle stationary (zero-yaw-rate update of the gyro bias)
     wheel: tuple = None       # agnav: (speed m/s, variance) of a wheel speed fused at this epoch
     accel: float = None       # agnav: along-track acceleration of base_link from the accelerometer (m/s^2)
+
+
+def last_at(history, t):
+    """Index of the last Sample of `history` (in time order) at or before t; -1 if none."""
+    return bisect.bisect_right(history, t, key=lambda sample: sample.t) - 1
 
 
 def euler_rates(body_rates, roll, pitch, yaw_q_offset=0.0):
