@@ -387,7 +387,7 @@ class AgnavEstimator:
             position[:2] = x[:2]
             pose_cov.put(POSE_XY_YAW, P.take(EKF_XY_PHI) * YAW_SIGN)
             twist_cov[0, 0] = P[IV, IV]
-            twist_cov[5, 5] = P[IB, IB] + m.settings.ekf.rate_noise ** 2
+            twist_cov[5, 5] = P[IB, IB] + s.ekf.rate_noise ** 2
             # valid once within heading_valid_sigma, until beyond heading_lost_sigma or forgotten: an IMU gap or an
             # outage widens the published covariance, it does not silence the output
             self.heading_valid = self.heading_known and P[IPHI, IPHI] <= (
